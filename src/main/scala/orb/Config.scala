@@ -1,0 +1,101 @@
+package orb
+
+import spinal.core._
+
+/** Geometry limits of the pixel stream. Only `maxWidth` costs memory (it is the depth of every line buffer);
+  * `maxHeight` only sizes counters.
+  *
+  * @param coordWidth bits of every x/y coordinate; 11 bits address up to 2047 in both directions
+  */
+case class FrameConfig(maxWidth: Int = 1024, maxHeight: Int = 2047, coordWidth: Int = 11) {
+  require(maxWidth >= 16 && maxHeight >= 16, "frames smaller than 16x16 are not supported")
+  // x and y saturate at maxWidth / maxHeight after a fault, so those values must be representable too.
+  require(maxWidth < (1 << coordWidth) && maxHeight < (1 << coordWidth),
+    s"coordWidth=$coordWidth cannot hold maxWidth=$maxWidth / maxHeight=$maxHeight")
+  def addrWidth: Int = log2Up(maxWidth)
+  def counterWidth: Int = 32
+}
+
+/** Harris-Stephens corner detector.
+  *
+  * Fixed-point data path (every width below is derived here, from the worst case of an 8-bit image):
+  *  - Sobel gx, gy: OpenCV's 3x3 kernel, exact, |g| <= 1020 (11 bits signed).
+  *  - products gx^2, gy^2, gx*gy: exact (20 bits unsigned / 21 bits signed).
+  *  - 7x7 binomial window (1 6 15 20 15 6 1, outer product, weights sum to 4096): exact sums, then
+  *    `>> windowShift` (floor). The default 15 keeps the window sums in 17/18 bits, so every product of the
+  *    response stage fits one 18x18 multiplier of the target.
+  *  - R = Sxx*Syy - Sxy^2 - ((kNum * (Sxx+Syy)^2) >> kShift), exact apart from that floor.
+  *  - score = max(0, R >> scoreShift); with the defaults a positive R >> 2 always fits 32 bits.
+  *
+  * @param border no corner closer than this to any image edge; the default 22 is the ORB stage's need: rotated
+  *               BRIEF tests reach 19 px, plus 3 px for the 7x7 smoothing of the sampled image
+  */
+case class HarrisConfig(
+    kNum: Int = 41,
+    kShift: Int = 10,
+    windowShift: Int = 15,
+    scoreShift: Int = 2,
+    border: Int = 22,
+    defaultThreshold: Long = 2000000L
+) {
+  import HarrisConfig._
+  require(kNum > 0 && kShift >= 0 && kNum < (1 << kShift), "k = kNum / 2^kShift must lie in (0, 1)")
+  require(windowShift >= 0 && scoreShift >= 0)
+  require(border >= reach, s"border must be >= $reach: the filters need that many pixels of context")
+  def k: Double = kNum.toDouble / (1 << kShift)
+
+  // Worst cases, in the integer units of each stage.
+  val gradMax: BigInt = 4 * 255
+  val productMax: BigInt = gradMax * gradMax
+  val columnSumMax: BigInt = productMax * binomialSum
+  val windowSumMax: BigInt = columnSumMax * binomialSum
+  val windowedMax: BigInt = windowSumMax >> windowShift
+  val traceMax: BigInt = 2 * windowedMax
+  val detMax: BigInt = windowedMax * windowedMax
+  val kTrace2Max: BigInt = (traceMax * traceMax * kNum) >> kShift
+
+  def gradWidth: Int = bitsSigned(gradMax)
+  def squareWidth: Int = bitsUnsigned(productMax)
+  def crossWidth: Int = bitsSigned(productMax)
+  def columnSquareWidth: Int = bitsUnsigned(columnSumMax)
+  def columnCrossWidth: Int = bitsSigned(columnSumMax)
+  def windowSquareWidth: Int = bitsUnsigned(windowSumMax)
+  def windowCrossWidth: Int = bitsSigned(windowSumMax)
+  def sSquareWidth: Int = bitsUnsigned(windowedMax)
+  def sCrossWidth: Int = bitsSigned(windowedMax)
+  def traceWidth: Int = bitsUnsigned(traceMax)
+  def kTrace2Width: Int = bitsUnsigned(kTrace2Max)
+  def detWidth: Int = bitsSigned(detMax)
+  /** R lies in [-kTrace2Max - detMax, detMax]. */
+  def responseWidth: Int = bitsSigned(detMax + kTrace2Max)
+  /** A positive R is at most det <= windowedMax^2. */
+  def scoreWidth: Int = bitsUnsigned(detMax >> scoreShift)
+  require(scoreWidth <= 32, s"scores need $scoreWidth bits; raise scoreShift so that they fit the 32-bit threshold")
+}
+
+object HarrisConfig {
+  val binomial: Seq[Int] = Seq(1, 6, 15, 20, 15, 6, 1)
+  val binomialSum: Int = binomial.sum
+  /** Context the detector needs around a corner: Sobel 1 + window 3 + non-maximum suppression 1. */
+  val reach: Int = 5
+  /** Raw rows the detector reads at once: the 7 rows of gradients, each needing one row above and below. */
+  val rawRows: Int = 9
+  def bitsUnsigned(max: BigInt): Int = max.bitLength max 1
+  def bitsSigned(maxAbs: BigInt): Int = maxAbs.bitLength + 1
+}
+
+/** The whole core. Later stages (descriptor, store, matcher) add their blocks here. */
+case class OrbConfig(frame: FrameConfig = FrameConfig(), harris: HarrisConfig = HarrisConfig()) {
+  /** Raw-image rows kept by the shared line buffer: as many as its most demanding reader needs. */
+  def rawRows: Int = HarrisConfig.rawRows
+  def maxWidth: Int = frame.maxWidth
+}
+
+object OrbConfig {
+  /** DE2-70 / Cyclone II EP2C70 target, 1024-pixel lines. */
+  val default: OrbConfig = OrbConfig()
+  /** 640-pixel lines (VGA cameras): smaller line buffers. */
+  val vga: OrbConfig = OrbConfig(frame = FrameConfig(maxWidth = 640, maxHeight = 1023))
+
+  val presets: Map[String, OrbConfig] = Map("default" -> default, "vga" -> vga)
+}

@@ -1,0 +1,169 @@
+package orb
+
+import spinal.core._
+import spinal.lib._
+import spinal.lib.misc.pipeline._
+
+/** Where each step of the detector sits in its pipeline (node index); a later node means more registers in
+  * between. Steps of one node share a clock; the default puts a register after every adder tree and multiplier. */
+case class HarrisStages(sobel: Int = 0, products: Int = 1, columnPre: Int = 2, columnSum: Int = 3, rowPre: Int = 4,
+                        rowSum: Int = 5, multiply: Int = 6, kTrace: Int = 7, response: Int = 8, suppressRead: Int = 9) {
+  private val order = Seq(sobel, products, columnPre, columnSum, rowPre, rowSum, multiply, kTrace, response, suppressRead)
+  require(order.head >= 0 && order.zip(order.tail).forall { case (a, b) => b > a },
+    "each step needs the previous one's registered result: node indices must strictly increase")
+  /** the window column arrives one node after it is read; the corner leaves one node later */
+  def suppress: Int = suppressRead + 1
+  def output: Int = suppress + 1
+  /** clocks from a column at the input to the corner it completes at the output */
+  def latency: Int = output
+}
+
+/** Harris-Stephens detector over the shared raw line buffer (see `HarrisConfig` for the arithmetic and
+  * `orb.model.HarrisModel` for the same steps in plain Scala).
+  *
+  * Input: one column of the newest `HarrisConfig.rawRows` rows per pixel. The gradients of 7 rows are computed
+  * side by side from those 9 raw rows, so no gradient or product is ever stored: the only memories are the
+  * shared raw rows and 2 rows of scores for the suppression. A corner at (x, y) leaves with the input pixel
+  * (x + 5, y + 5), `stages.latency` clocks after it. */
+class HarrisDetector(f: FrameConfig, h: HarrisConfig, columnRows: Int, stages: HarrisStages = HarrisStages())
+    extends Component {
+  require(columnRows >= HarrisConfig.rawRows)
+  val io = new Bundle {
+    val columns = slave Flow (LineColumn(f, columnRows))
+    val geometry = in(FrameGeometry(f))
+    val threshold = in UInt (32 bits)
+    val corners = master Flow (HarrisCorner(f, h))
+    val frameEnds = master Flow (FrameEndInfo())
+    val cornerCount = out UInt (f.counterWidth bits)
+  }
+  val reach = HarrisConfig.reach
+  val nodes = Array.fill(stages.output + 1)(Node())
+  val links = (0 until stages.output).map(i => StageLink(nodes(i), nodes(i + 1)))
+  def at(i: Int): Node = nodes(i)
+
+  val COLUMN = Payload(Vec(UInt(8 bits), HarrisConfig.rawRows))
+  val PIXEL = Payload(TrackedPixel(f))
+  at(0).driveFrom(io.columns) { (n, p) =>
+    n(PIXEL) := p.pixel
+    for (r <- 0 until HarrisConfig.rawRows) n(COLUMN)(r) := p.column(r)
+  }
+
+  /** The last `n` values of `v` (element 0 = `v` itself), advancing only on valid pixels: the horizontal extent of
+    * a window, whatever the blanking. */
+  private def lastValid[T <: Data](v: T, n: Int, valid: Bool): Vec[T] = History[T](v, n, valid, null.asInstanceOf[T])
+
+  /** Arithmetic shift right (floor), written as a slice so that the Verilog has no width-changing shift. */
+  private def floorShift(v: SInt, n: Int): SInt = if (n == 0) v else v(v.high downto n)
+  private def floorShift(v: UInt, n: Int): UInt = if (n == 0) v else v(v.high downto n)
+
+  /** 1 2 1 smoothing of three values. */
+  private def w121(a: SInt, b: SInt, c: SInt, width: Int): SInt = (a.resize(width) + (b.resize(width) |<< 1)) + c.resize(width)
+
+  /** Binomial 1 6 15 20 15 6 1 as a symmetric pre-add (at node `pre`) then shifts and adds (at node `sum`). */
+  private def binomial7(values: collection.IndexedSeq[SInt], pre: Node, sum: Node, width: Int): SInt = {
+    require(values.size == 7)
+    val pairs = pre.insert(Vec(Seq((0, 6), (1, 5), (2, 4)).map { case (i, j) => values(i).resize(width) + values(j).resize(width) } :+
+      values(3).resize(width)))
+    val Seq(a, b, c, d) = sum(pairs).toSeq
+    (a + (b |<< 2) + (b |<< 1)) + ((c |<< 4) - c) + ((d |<< 4) + (d |<< 2))
+  }
+
+  // Column index r is r rows above the newest; gradients are taken for the 7 rows centred on indices 1..7,
+  // at column x-1 of the newest pixel x.
+  val sobelNode = at(stages.sobel)
+  val sobel = new sobelNode.Area {
+    val cols = lastValid(this(COLUMN), 3, isValid) // 0: column x, 1: x-1, 2: x-2
+    def px(c: Int, r: Int): SInt = cols(c)(r).intoSInt
+    val gw = h.gradWidth
+    val GX = insert(Vec((1 to 7).map(r => w121(px(0, r - 1), px(0, r), px(0, r + 1), gw) - w121(px(2, r - 1), px(2, r), px(2, r + 1), gw))))
+    // Index r-1 is the row below r (newer), so gy = bottom - top as in OpenCV.
+    val GY = insert(Vec((1 to 7).map(r => w121(px(0, r - 1), px(1, r - 1), px(2, r - 1), gw) - w121(px(0, r + 1), px(1, r + 1), px(2, r + 1), gw))))
+  }
+
+  // Exact products; 11x11 bits, one embedded multiplier each.
+  val productsNode = at(stages.products)
+  val products = new productsNode.Area {
+    val XX = insert(Vec(sobel.GX.map(g => (g * g).resize(h.crossWidth))))
+    val YY = insert(Vec(sobel.GY.map(g => (g * g).resize(h.crossWidth))))
+    val XY = insert(Vec((0 until 7).map(i => (sobel.GX(i) * sobel.GY(i)).resize(h.crossWidth))))
+  }
+
+  // Vertical pass of the window: exact sums over the 7 rows of one column.
+  val column = new Area {
+    val w = h.columnCrossWidth
+    val VXX = at(stages.columnSum).insert(binomial7(at(stages.columnPre)(products.XX), at(stages.columnPre), at(stages.columnSum), w))
+    val VYY = at(stages.columnSum).insert(binomial7(at(stages.columnPre)(products.YY), at(stages.columnPre), at(stages.columnSum), w))
+    val VXY = at(stages.columnSum).insert(binomial7(at(stages.columnPre)(products.XY), at(stages.columnPre), at(stages.columnSum), w))
+  }
+
+  // Horizontal pass over the last 7 column sums (they advance with valid pixels only), then the window shift.
+  val row = new Area {
+    val pre = at(stages.rowPre)
+    val w = h.windowCrossWidth
+    def window(v: Payload[SInt]): SInt = floorShift(binomial7(lastValid(pre(v), 7, pre.isValid), pre, at(stages.rowSum), w), h.windowShift)
+    val SXX = at(stages.rowSum).insert(window(column.VXX).resize(h.sSquareWidth + 1).asUInt.resize(h.sSquareWidth))
+    val SYY = at(stages.rowSum).insert(window(column.VYY).resize(h.sSquareWidth + 1).asUInt.resize(h.sSquareWidth))
+    val SXY = at(stages.rowSum).insert(window(column.VXY).resize(h.sCrossWidth))
+  }
+
+  // det and trace^2: three multipliers of at most 18x18 bits with the default shifts.
+  val multiplyNode = at(stages.multiply)
+  val multiply = new multiplyNode.Area {
+    val XXYY = insert(row.SXX * row.SYY)
+    val XY2 = insert((row.SXY * row.SXY).asUInt.resize(2 * h.sCrossWidth - 2))
+    val trace = (row.SXX +^ row.SYY).resize(h.traceWidth)
+    val TR2 = insert(trace * trace)
+  }
+
+  val kTraceNode = at(stages.kTrace)
+  val kTrace = new kTraceNode.Area {
+    // kNum * tr^2 by shifts and adds: kNum is a small constant.
+    val terms = (0 until log2Up(h.kNum + 1)).filter(b => ((h.kNum >> b) & 1) == 1).map(b => multiply.TR2.resize(h.kTrace2Width + h.kShift) |<< b)
+    val KTR2 = insert(floorShift(terms.reduce(_ + _), h.kShift).resize(h.kTrace2Width))
+    val DET = insert(multiply.XXYY.intoSInt.resize(h.detWidth) - multiply.XY2.intoSInt.resize(h.detWidth))
+  }
+
+  val responseNode = at(stages.response)
+  val response = new responseNode.Area {
+    val r = kTrace.DET.resize(h.responseWidth) - kTrace.KTR2.intoSInt.resize(h.responseWidth)
+    val shifted = floorShift(r, h.scoreShift)
+    val SCORE = insert(Mux(shifted.sign, U(0, h.scoreWidth bits), shifted.asUInt.resize(h.scoreWidth)))
+  }
+
+  // 3x3 suppression over the last 3 rows of scores (its own small row window) and 3 columns of registers.
+  val suppress = new Area {
+    val read = at(stages.suppressRead)
+    val scores = new RowWindow(RowWindowConfig(3, f.maxWidth, h.scoreWidth))
+    val WINDOW = at(stages.suppress).insert(scores.column(read.isValid, read(PIXEL).x, read(response.SCORE).asBits))
+    val n = at(stages.suppress)
+    val cols = lastValid(Vec(n(WINDOW).map(_.asUInt)), 3, n.isValid) // 0: column x, 1: x-1 (centre), 2: x-2
+    // Row 0 is the newest (below the centre), row 2 the oldest (above).
+    val centre = cols(1)(1)
+    val earlier = Seq(cols(2)(2), cols(1)(2), cols(0)(2), cols(2)(1))
+    val later = Seq(cols(0)(1), cols(2)(0), cols(1)(0), cols(0)(0))
+    val p = n(PIXEL)
+    // The geometry registers only change at a start of frame that follows a good frame of the same geometry,
+    // so beats still in flight from the previous frame see the right values.
+    // (v - reach) in [border, size - 1 - border], without unsigned wrap-around for small frames.
+    def inside(v: UInt, size: UInt) = v >= h.border + reach && (v +^ h.border) < (size +^ reach)
+    val isCorner = p.active && centre > io.threshold && earlier.map(centre > _).andR && later.map(centre >= _).andR &&
+      inside(p.x, io.geometry.width) && inside(p.y, io.geometry.height)
+    val IS_CORNER = n.insert(isCorner)
+    val CENTRE = n.insert(centre)
+  }
+
+  val outputNode = at(stages.output)
+  val output = new outputNode.Area {
+    io.corners.valid := isValid && outputNode(suppress.IS_CORNER)
+    io.corners.x := outputNode(PIXEL).x - reach
+    io.corners.y := outputNode(PIXEL).y - reach
+    io.corners.score := outputNode(suppress.CENTRE)
+    io.frameEnds.valid := isValid && outputNode(PIXEL).ends
+    io.frameEnds.payload := outputNode(PIXEL).end
+    val count = Reg(UInt(f.counterWidth bits)) init 0
+    when(io.corners.valid) { count := count + 1 }
+    io.cornerCount := count
+  }
+
+  Builder(links)
+}

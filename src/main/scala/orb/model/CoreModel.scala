@@ -1,0 +1,57 @@
+package orb.model
+
+import orb.OrbConfig
+import scala.collection.mutable.ArrayBuffer
+
+/** End of a processed frame, as the core reports it. */
+final case class FrameEnd(ok: Boolean, keyframe: Boolean)
+
+/** Everything the core emits for a beat sequence, in emission order. */
+final case class CoreResult(corners: Seq[Corner], frameEnds: Seq[FrameEnd], counters: FrameCounters, cornerCount: Long,
+                            /** per emitted corner / frame end: the index of the beat that carried it */
+                            cornerBeats: Seq[Int], frameEndBeats: Seq[Int])
+
+/** Bit-exact model of the whole core (`orb.OrbCore`): the frame tracker decides which beats are processed, the
+  * Harris model computes the corners of each processed frame, and a corner is emitted iff the beat that completes
+  * its neighbourhood, (x + reach, y + reach), was processed (i.e. came before any fault of its frame). */
+object CoreModel {
+  def run(cfg: OrbConfig, beats: Seq[Beat], threshold: Long): CoreResult = {
+    val tracker = new FrameTrackerModel(cfg.frame)
+    val reach = orb.HarrisConfig.reach
+    val corners = ArrayBuffer[(Int, Corner)]()
+    val ends = ArrayBuffer[(Int, FrameEnd)]()
+    // The processed frame being collected: geometry, pixels, beat index of each raster position, active prefix.
+    var w, h, activeCount = 0
+    var pixels: Array[Int] = null
+    var beatIndex: Array[Int] = null
+    var collecting = false
+
+    def flush(): Unit = if (collecting) {
+      collecting = false
+      val img = GrayImage(w, h, pixels)
+      for (c <- HarrisModel.corners(img, cfg.harris, threshold)) {
+        val emit = (c.y + reach) * w + (c.x + reach)
+        if (emit < activeCount) corners += beatIndex(emit) -> c
+      }
+    }
+
+    for ((b, i) <- beats.zipWithIndex) {
+      if (b.sof) flush()
+      tracker.step(b).foreach { t =>
+        if (b.sof && t.active) {
+          val (gw, gh) = tracker.geometry
+          w = gw; h = gh; activeCount = 0; collecting = true
+          pixels = new Array[Int](w * h); beatIndex = new Array[Int](w * h)
+        }
+        if (t.active) {
+          pixels(t.y * w + t.x) = t.luma; beatIndex(t.y * w + t.x) = i; activeCount += 1
+        }
+        if (t.frameEnd) ends += i -> FrameEnd(t.frameOk, t.frameKey)
+      }
+    }
+    flush()
+    val sortedCorners = corners.sortBy(_._1)
+    CoreResult(sortedCorners.map(_._2).toSeq, ends.map(_._2).toSeq, tracker.stats, corners.size.toLong,
+      sortedCorners.map(_._1).toSeq, ends.map(_._1).toSeq)
+  }
+}

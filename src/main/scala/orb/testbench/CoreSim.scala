@@ -1,0 +1,115 @@
+package orb.testbench
+
+import orb._
+import orb.model._
+import spinal.core._
+import spinal.core.sim._
+
+import scala.collection.mutable.ArrayBuffer
+import scala.util.Random
+
+/** Blanking inserted by the driver: after each pixel (with probability `pixelGapProb`, 1..maxPixelGap idle
+  * clocks), after each line and before each frame (uniform in the given inclusive ranges). */
+final case class Blanking(pixelGapProb: Double = 0, maxPixelGap: Int = 0, lineGap: (Int, Int) = (0, 0), frameGap: (Int, Int) = (0, 0)) {
+  require(pixelGapProb >= 0 && pixelGapProb <= 1 && lineGap._1 <= lineGap._2 && frameGap._1 <= frameGap._2)
+}
+object Blanking {
+  val none: Blanking = Blanking()
+  /** A camera-like stream: no gaps inside lines, horizontal and vertical blanking. */
+  val camera: Blanking = Blanking(lineGap = (16, 64), frameGap = (100, 400))
+  /** Irregular gaps everywhere, including none at all between some lines. */
+  val random: Blanking = Blanking(pixelGapProb = 0.2, maxPixelGap = 3, lineGap = (0, 20), frameGap = (0, 50))
+}
+
+/** Output events of the core in the order it emits them (a corner before a frame end of the same clock). */
+sealed trait CoreEvent
+final case class CornerEvent(c: Corner) extends CoreEvent
+final case class FrameEndEvent(e: FrameEnd) extends CoreEvent
+
+final case class RtlResult(events: Seq[CoreEvent], counters: FrameCounters, cornerCount: Long, cycles: Long) {
+  def corners: Seq[Corner] = events.collect { case CornerEvent(c) => c }
+  def frameEnds: Seq[FrameEnd] = events.collect { case FrameEndEvent(e) => e }
+}
+
+object CoreEvents {
+  /** The model's output as the same ordered event list the RTL monitor records. */
+  def of(r: CoreResult): Seq[CoreEvent] = {
+    val cs = r.corners.zip(r.cornerBeats).map { case (c, b) => (b, 0, CornerEvent(c): CoreEvent) }
+    val es = r.frameEnds.zip(r.frameEndBeats).map { case (e, b) => (b, 1, FrameEndEvent(e): CoreEvent) }
+    (cs ++ es).sortBy(t => (t._1, t._2)).map(_._3)
+  }
+}
+
+/** Builds and drives the Verilator model of `OrbCore`. */
+object CoreSim {
+  def simConfig(workspace: String = "simWorkspace", wave: Boolean = false): SpinalSimConfig = {
+    val c = SimConfig.withConfig(Generate.spinalConfig(s"$workspace/rtl").includeSimulation)
+      .withVerilator.workspacePath(workspace)
+    if (wave) c.withFstWave else c
+  }
+
+  def compile(cfg: OrbConfig, workspace: String = "simWorkspace", wave: Boolean = false): SimCompiled[OrbCore] =
+    simConfig(workspace, wave).compile(new OrbCore(cfg))
+
+  /** Drives every input to a defined value; call before the first clock edge. */
+  def idle(dut: OrbCore, threshold: Long): Unit = {
+    dut.io.pixels.valid #= false
+    dut.io.pixels.luma #= 0
+    dut.io.pixels.sof #= false
+    dut.io.pixels.eol #= false
+    dut.io.pixels.keyframe #= false
+    dut.io.harrisThreshold #= threshold
+  }
+
+  /** Records every corner and frame end the core emits, from now on. */
+  final class Monitor(dut: OrbCore) {
+    val events = ArrayBuffer[CoreEvent]()
+    var cycles = 0L
+    dut.clockDomain.onSamplings {
+      cycles += 1
+      if (dut.io.corners.valid.toBoolean)
+        events += CornerEvent(Corner(dut.io.corners.x.toInt, dut.io.corners.y.toInt, dut.io.corners.score.toLong))
+      if (dut.io.frameEnds.valid.toBoolean)
+        events += FrameEndEvent(FrameEnd(dut.io.frameEnds.ok.toBoolean, dut.io.frameEnds.keyframe.toBoolean))
+    }
+  }
+
+  def counters(dut: OrbCore): FrameCounters =
+    FrameCounters(dut.io.status.frames.toLong, dut.io.status.badFrames.toLong, dut.io.status.badLines.toLong)
+
+  /** Sends `beats` with the given blanking, one pixel per clock at most; `progress` is called every 64k beats. */
+  def drive(dut: OrbCore, beats: Seq[Beat], blanking: Blanking, rng: Random, progress: Int => Unit = _ => ()): Unit = {
+    val cd = dut.clockDomain
+    def gap(n: Int): Unit = if (n > 0) { dut.io.pixels.valid #= false; cd.waitSampling(n) }
+    def uniform(r: (Int, Int)) = r._1 + rng.nextInt(r._2 - r._1 + 1)
+    var i = 0
+    for (b <- beats) {
+      if (b.sof) gap(uniform(blanking.frameGap))
+      dut.io.pixels.valid #= true
+      dut.io.pixels.luma #= b.luma
+      dut.io.pixels.sof #= b.sof
+      dut.io.pixels.eol #= b.eol
+      dut.io.pixels.keyframe #= b.keyframe
+      cd.waitSampling()
+      if (b.eol) gap(uniform(blanking.lineGap))
+      if (blanking.pixelGapProb > 0 && rng.nextDouble() < blanking.pixelGapProb) gap(1 + rng.nextInt(blanking.maxPixelGap max 1))
+      i += 1
+      if ((i & 0xffff) == 0) progress(i)
+    }
+    dut.io.pixels.valid #= false
+  }
+
+  /** Clocks enough for everything in flight to leave. */
+  def drain(dut: OrbCore): Unit = dut.clockDomain.waitSampling(OrbCore.latency() + 8)
+
+  /** One complete run from reset: returns what the core emitted and its counters. */
+  def run(dut: OrbCore, beats: Seq[Beat], threshold: Long, blanking: Blanking, seed: Long): RtlResult = {
+    idle(dut, threshold)
+    dut.clockDomain.forkStimulus(10)
+    dut.clockDomain.waitSampling(4)
+    val monitor = new Monitor(dut)
+    drive(dut, beats, blanking, new Random(seed))
+    drain(dut)
+    RtlResult(monitor.events.toSeq, counters(dut), dut.io.status.corners.toLong, monitor.cycles)
+  }
+}

@@ -1,0 +1,50 @@
+package orb.testbench
+
+import orb.model._
+import java.io.{File, PrintWriter}
+
+/** Compares the model's and the RTL's event lists; on a difference writes both as CSV, and the corners drawn on
+  * the image, under `dumpDir/name/` for a person to look at, and returns a one-paragraph description. */
+object Scoreboard {
+  val dumpDir = new File("target/test-failures")
+
+  def compare(name: String, model: Seq[CoreEvent], rtl: Seq[CoreEvent], image: Option[GrayImage] = None): Option[String] = {
+    if (model == rtl) return None
+    val firstDiff = model.zipAll(rtl, null, null).indexWhere { case (a, b) => a != b }
+    val dir = new File(dumpDir, name.replaceAll("[^A-Za-z0-9_.-]+", "_"))
+    dir.mkdirs()
+    writeCsv(new File(dir, "model.csv"), model)
+    writeCsv(new File(dir, "rtl.csv"), rtl)
+    image.foreach { img =>
+      def corners(es: Seq[CoreEvent]) = es.collect { case CornerEvent(c) => c }
+      Draw.corners(img, corners(model), corners(rtl)).foreach(javax.imageio.ImageIO.write(_, "png", new File(dir, "corners.png")))
+    }
+    Some(s"$name: model emitted ${model.size} events, RTL ${rtl.size}; first difference at event $firstDiff: " +
+      s"model ${model.lift(firstDiff).getOrElse("-")} vs RTL ${rtl.lift(firstDiff).getOrElse("-")}; dumped to ${dir.getPath}")
+  }
+
+  def writeCsv(f: File, events: Seq[CoreEvent]): Unit = {
+    val w = new PrintWriter(f)
+    try {
+      w.println("kind,x,y,score,ok,keyframe")
+      events.foreach {
+        case CornerEvent(c) => w.println(s"corner,${c.x},${c.y},${c.score},,")
+        case FrameEndEvent(e) => w.println(s"frame_end,,,,${e.ok},${e.keyframe}")
+      }
+    } finally w.close()
+  }
+}
+
+/** Tiny drawing helpers for debug pictures (no plotting library needed for crosses on an image). */
+object Draw {
+  import java.awt.image.BufferedImage
+  /** Model corners as green crosses, RTL corners as red squares: where they agree both show. */
+  def corners(img: GrayImage, model: Seq[Corner], rtl: Seq[Corner]): Option[BufferedImage] = {
+    val out = new BufferedImage(img.width, img.height, BufferedImage.TYPE_INT_RGB)
+    for (y <- 0 until img.height; x <- 0 until img.width) { val v = img(x, y) / 2; out.setRGB(x, y, (v << 16) | (v << 8) | v) }
+    def put(x: Int, y: Int, rgb: Int): Unit = if (x >= 0 && y >= 0 && x < img.width && y < img.height) out.setRGB(x, y, rgb)
+    for (c <- model; d <- -3 to 3) { put(c.x + d, c.y, 0x00ff00); put(c.x, c.y + d, 0x00ff00) }
+    for (c <- rtl; d <- -2 to 2) { put(c.x + d, c.y - 2, 0xff0000); put(c.x + d, c.y + 2, 0xff0000); put(c.x - 2, c.y + d, 0xff0000); put(c.x + 2, c.y + d, 0xff0000) }
+    Some(out)
+  }
+}

@@ -1,0 +1,71 @@
+package orb
+
+import orb.model._
+import orb.testbench._
+import org.scalatest.funsuite.AnyFunSuite
+
+/** RTL (Verilator) against the bit-exact model: corners, scores, order, frame ends and counters. */
+class OrbCoreSpec extends AnyFunSuite {
+  import TestSupport._
+
+  /** The first frame only teaches the core the geometry; the following ones are processed. */
+  def stream(frames: Seq[GrayImage]): Seq[Beat] = frames.flatMap(Beat.frame(_))
+
+  def check(name: String, frames: Seq[GrayImage], blanking: Blanking, thr: Long = threshold): (CoreResult, RtlResult) = {
+    val beats = stream(frames)
+    val model = CoreModel.run(config, beats, thr)
+    var rtl: RtlResult = null
+    core.doSim(name, seed.toInt) { dut => rtl = CoreSim.run(dut, beats, thr, blanking, rng(name).nextLong()) }
+    Scoreboard.compare(name, CoreEvents.of(model), rtl.events, frames.lastOption).foreach(msg => fail(msg))
+    assert(rtl.counters == model.counters, s"$name: counters")
+    assert(rtl.cornerCount == model.cornerCount, s"$name: corner counter")
+    println(f"[orb] $name%-32s ${frames.size} frames ${frames.head.width}x${frames.head.height}: " +
+      s"${rtl.corners.size} corners, ${rtl.frameEnds.size} frame ends, ${rtl.cycles} clocks")
+    (model, rtl)
+  }
+
+  val w = 96; val h = 80
+  test("synthetic: blank frames give no corner") {
+    val (_, rtl) = check("blank", Seq.fill(3)(Patterns.blank(w, h)), Blanking.random)
+    assert(rtl.corners.isEmpty)
+    assert(rtl.frameEnds == Seq.fill(2)(FrameEnd(ok = true, keyframe = false)))
+  }
+  test("synthetic: a step edge corner") {
+    val (_, rtl) = check("edges", Seq.fill(2)(Patterns.edges(w, h)), Blanking.none)
+    assert(rtl.corners.map(c => (c.x, c.y)).exists { case (x, y) => (x - w / 2).abs <= 2 && (y - h / 3).abs <= 2 })
+  }
+  test("synthetic: checkerboard, every inner crossing, ties included") {
+    val (_, rtl) = check("checkerboard", Seq.fill(2)(Patterns.checkerboard(w, h, 8)), Blanking.random)
+    assert(rtl.corners.size >= 9, "a checkerboard has crossings inside the border")
+  }
+  test("synthetic: noise and boxes, back to back without blanking") {
+    val r = rng("noise")
+    check("noise-boxes", Seq(Patterns.noise(w, h, r), Patterns.boxes(w, h, r), Patterns.noise(w, h, r), Patterns.boxes(w, h, r)), Blanking.none)
+  }
+  test("synthetic: zero threshold (every local maximum)") {
+    val r = rng("zero")
+    check("boxes-threshold0", Seq.fill(2)(Patterns.boxes(w, h, r)), Blanking.random, thr = 0)
+  }
+  test("keyframe flags reach the frame ends") {
+    val img = Patterns.boxes(w, h, rng("key"))
+    val beats = Beat.frame(img) ++ Beat.frame(img, keyframe = true) ++ Beat.frame(img)
+    val model = CoreModel.run(config, beats, threshold)
+    var rtl: RtlResult = null
+    core.doSim("keyframe", seed.toInt) { dut => rtl = CoreSim.run(dut, beats, threshold, Blanking.random, seed) }
+    Scoreboard.compare("keyframe", CoreEvents.of(model), rtl.events, Some(img)).foreach(msg => fail(msg))
+    assert(rtl.frameEnds == Seq(FrameEnd(ok = true, keyframe = true), FrameEnd(ok = true, keyframe = false)))
+  }
+  test("real photographs: crops, several blankings") {
+    val graf = image("graf1.png")
+    check("graf1-crop", Seq(graf.crop(300, 200, 160, 120), graf.crop(300, 200, 160, 120), graf.crop(320, 210, 160, 120)), Blanking.random)
+    val box = image("box.png")
+    check("box", Seq(box, box), Blanking.camera)
+    val leuven = image("leuvenA.png").crop(100, 100, 256, 160)
+    check("leuven-crop", Seq(leuven, leuven), Blanking.none)
+  }
+  test("real photograph at full size: graf1 800x640, random blanking") {
+    val graf = image("graf1.png")
+    val (_, rtl) = check("graf1-full", Seq(graf, graf), Blanking.random)
+    assert(rtl.corners.size > 100)
+  }
+}
