@@ -22,11 +22,14 @@ case class FrameConfig(maxWidth: Int = 1024, maxHeight: Int = 2047, coordWidth: 
   *  - Sobel gx, gy: OpenCV's 3x3 kernel, exact, |g| <= 1020 (11 bits signed).
   *  - products gx^2, gy^2, gx*gy: exact (20 bits unsigned / 21 bits signed).
   *  - 7x7 binomial window (1 6 15 20 15 6 1, outer product, weights sum to 4096): exact sums, then
-  *    `>> windowShift` (floor). The default 15 keeps the window sums in 17/18 bits, so every product of the
+  *    `>> windowShift` rounded half up. The default 15 keeps the window sums in 17/18 bits, so every product of the
   *    response stage fits one 18x18 multiplier of the target.
   *  - R = Sxx*Syy - Sxy^2 - ((kNum * (Sxx+Syy)^2) >> kShift), exact apart from that floor.
   *  - score = max(0, R >> scoreShift); with the defaults a positive R >> 2 always fits 32 bits.
   *
+  * @param defaultThreshold the threshold the tools use: an ideal right-angle corner of 45 grey levels contrast
+  *               scores about 2^18 (the score grows with the 4th power of the contrast: 32 levels ~ 67e3,
+  *               64 levels ~ 1.1e6). The hardware takes the threshold at run time.
   * @param border no corner closer than this to any image edge; the default 22 is the ORB stage's need: rotated
   *               BRIEF tests reach 19 px, plus 3 px for the 7x7 smoothing of the sampled image
   */
@@ -36,7 +39,7 @@ case class HarrisConfig(
     windowShift: Int = 15,
     scoreShift: Int = 2,
     border: Int = 22,
-    defaultThreshold: Long = 2000000L
+    defaultThreshold: Long = 1L << 18
 ) {
   import HarrisConfig._
   require(kNum > 0 && kShift >= 0 && kNum < (1 << kShift), "k = kNum / 2^kShift must lie in (0, 1)")
@@ -49,7 +52,7 @@ case class HarrisConfig(
   val productMax: BigInt = gradMax * gradMax
   val columnSumMax: BigInt = productMax * binomialSum
   val windowSumMax: BigInt = columnSumMax * binomialSum
-  val windowedMax: BigInt = windowSumMax >> windowShift
+  val windowedMax: BigInt = (windowSumMax + (BigInt(1) << windowShift >> 1)) >> windowShift
   val traceMax: BigInt = 2 * windowedMax
   val detMax: BigInt = windowedMax * windowedMax
   val kTrace2Max: BigInt = (traceMax * traceMax * kNum) >> kShift

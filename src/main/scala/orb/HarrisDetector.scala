@@ -100,7 +100,9 @@ class HarrisDetector(f: FrameConfig, h: HarrisConfig, columnRows: Int, stages: H
   val row = new Area {
     val pre = at(stages.rowPre)
     val w = h.windowCrossWidth
-    def window(v: Payload[SInt]): SInt = floorShift(binomial7(lastValid(pre(v), 7, pre.isValid), pre, at(stages.rowSum), w), h.windowShift)
+    // Rounded half up: the floor's bias of half a unit on every window sum would show in det - k tr^2.
+    val half = if (h.windowShift == 0) S(0, w bits) else S(BigInt(1) << (h.windowShift - 1), w bits)
+    def window(v: Payload[SInt]): SInt = floorShift(binomial7(lastValid(pre(v), 7, pre.isValid), pre, at(stages.rowSum), w) + half, h.windowShift)
     val SXX = at(stages.rowSum).insert(window(column.VXX).resize(h.sSquareWidth + 1).asUInt.resize(h.sSquareWidth))
     val SYY = at(stages.rowSum).insert(window(column.VYY).resize(h.sSquareWidth + 1).asUInt.resize(h.sSquareWidth))
     val SXY = at(stages.rowSum).insert(window(column.VXY).resize(h.sCrossWidth))

@@ -15,6 +15,9 @@ object HarrisModel {
     new Plane(w, h, Array.tabulate(w * h)(i => f(i % w, i / w)))
   private def inside(w: Int, h: Int, x: Int, y: Int, r: Int) = x >= r && y >= r && x < w - r && y < h - r
 
+  /** v / 2^n rounded half up (add half, then floor). */
+  def roundShift(v: Long, n: Int): Long = if (n == 0) v else (v + (1L << (n - 1))) >> n
+
   /** OpenCV's 3x3 Sobel: gx = right - left, gy = bottom - top, rows/columns weighted 1 2 1. */
   def sobel(img: GrayImage): (Plane[Long], Plane[Long]) = {
     val (w, h) = (img.width, img.height)
@@ -31,13 +34,13 @@ object HarrisModel {
      plane(w, h)((x, y) => gx(x, y) * gy(x, y)))
   }
 
-  /** 7x7 binomial window: exact column sums, exact row sums of those, then `>> windowShift` (floor). */
+  /** 7x7 binomial window: exact column sums, exact row sums of those, then `>> windowShift` rounded half up. */
   def window(p: Plane[Long], cfg: HarrisConfig): Plane[Long] = {
     val (w, h) = (p.width, p.height)
     val wts = HarrisConfig.binomial
     val column = plane(w, h)((x, y) => if (y >= 3 && y < h - 3) wts.indices.map(i => wts(i) * p(x, y + i - 3)).sum else 0)
     plane(w, h) { (x, y) =>
-      if (inside(w, h, x, y, 4)) wts.indices.map(i => wts(i) * column(x + i - 3, y)).sum >> cfg.windowShift else 0
+      if (inside(w, h, x, y, 4)) roundShift(wts.indices.map(i => wts(i) * column(x + i - 3, y)).sum, cfg.windowShift) else 0
     }
   }
 
