@@ -31,10 +31,16 @@ lazy val testSettings = Seq(
   run / connectInput := true
 )
 
-lazy val root = (project in file("."))
-  .settings(name := "orb-core", spinalDeps, testSettings)
+// `./sbt test` runs both projects' suites, one suite at a time; `runMain` stays with the generator.
+Global / concurrentRestrictions += Tags.limit(Tags.Test, 1)
 
-lazy val sim = (project in file("sim"))
+lazy val root: Project = (project in file("."))
+  .aggregate(LocalProject("sim"))
+  .settings(name := "orb-core", spinalDeps, testSettings,
+    Compile / run / aggregate := false,
+    Compile / runMain / aggregate := false)
+
+lazy val sim: Project = (project in file("sim"))
   .dependsOn(root % "compile->compile;test->test")
   .settings(
     name := "orb-sim",

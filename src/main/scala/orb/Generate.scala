@@ -15,6 +15,8 @@ object Generate {
 
   final case class Options(out: String = defaultOut, config: OrbConfig = OrbConfig.default, configName: String = "default")
 
+  private val valued = Set("--out", "--config", "--max-width")
+
   /** Parses the arguments; Left is a one-line error. */
   def parse(args: Seq[String]): Either[String, Options] = {
     def loop(rest: List[String], o: Options): Either[String, Options] = rest match {
@@ -28,7 +30,7 @@ object Generate {
         case Some(w) if w >= 16 && w <= 2047 => loop(tail, o.copy(config = o.config.copy(frame = o.config.frame.copy(maxWidth = w))))
         case _ => Left(s"--max-width takes a whole number from 16 to 2047, not '$n'")
       }
-      case opt :: Nil if opt.startsWith("--") && opt != "--help" => Left(s"$opt needs a value")
+      case opt :: Nil if valued(opt) => Left(s"$opt needs a value")
       case other :: _ => Left(s"unknown argument '$other' (see --help)")
     }
     loop(args.toList, Options())

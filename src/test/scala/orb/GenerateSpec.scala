@@ -19,6 +19,8 @@ class GenerateSpec extends AnyFunSuite {
       assert(status == 2, args)
       assert(msg.startsWith("orb.Generate: ") && !msg.contains("\n") && !msg.contains("Exception"), s"$args -> $msg")
     }
+    assert(runCli("--bogus")._2.contains("unknown argument '--bogus'"))
+    assert(runCli("--out")._2.contains("--out needs a value"))
   }
 
   lazy val verilog: File = {

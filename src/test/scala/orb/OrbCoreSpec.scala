@@ -55,6 +55,23 @@ class OrbCoreSpec extends AnyFunSuite {
     Scoreboard.compare("keyframe", CoreEvents.of(model), rtl.events, Some(img)).foreach(msg => fail(msg))
     assert(rtl.frameEnds == Seq(FrameEnd(ok = true, keyframe = true), FrameEnd(ok = true, keyframe = false)))
   }
+  test(s"latency: a corner leaves ${OrbCore.latency()} clocks after the pixel (x + 5, y + 5) enters") {
+    val img = Patterns.checkerboard(w, h, 8)
+    val beats = stream(Seq(img, img))
+    var clocks: Seq[Long] = Nil
+    var corners: Seq[Corner] = Nil
+    core.doSim("latency", seed.toInt) { dut =>
+      val monitor = CoreSim.start(dut, threshold)
+      CoreSim.drive(dut, beats, Blanking.none, rng("latency")) // beat i is sampled at monitor clock i + 1
+      CoreSim.drain(dut)
+      clocks = monitor.cornerClocks.toSeq; corners = monitor.events.collect { case CornerEvent(c) => c }.toSeq
+    }
+    assert(corners.nonEmpty)
+    for ((c, clk) <- corners.zip(clocks)) {
+      val beat = img.width * img.height + (c.y + HarrisConfig.reach) * img.width + (c.x + HarrisConfig.reach)
+      assert(clk - (beat + 1) == OrbCore.latency(), s"corner $c")
+    }
+  }
   test("real photographs: crops, several blankings") {
     val graf = image("graf1.png")
     check("graf1-crop", Seq(graf.crop(300, 200, 160, 120), graf.crop(300, 200, 160, 120), graf.crop(320, 210, 160, 120)), Blanking.random)

@@ -101,10 +101,7 @@ class StreamFaultSpec extends AnyFunSuite {
     var pre, post: Seq[CoreEvent] = Nil
     var countersAfter: FrameCounters = null
     core.doSim("reset-mid-frame", seed.toInt) { dut =>
-      CoreSim.idle(dut, threshold)
-      dut.clockDomain.forkStimulus(10)
-      dut.clockDomain.waitSampling(4)
-      val monitor = new CoreSim.Monitor(dut)
+      val monitor = CoreSim.start(dut, threshold)
       val r = rng("reset")
       CoreSim.drive(dut, before, Blanking.random, r)
       pre = monitor.events.toList

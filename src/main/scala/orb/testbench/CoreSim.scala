@@ -64,11 +64,15 @@ object CoreSim {
   /** Records every corner and frame end the core emits, from now on. */
   final class Monitor(dut: OrbCore) {
     val events = ArrayBuffer[CoreEvent]()
+    /** the clock (counted from the monitor's start) of each corner event */
+    val cornerClocks = ArrayBuffer[Long]()
     var cycles = 0L
     dut.clockDomain.onSamplings {
       cycles += 1
-      if (dut.io.corners.valid.toBoolean)
+      if (dut.io.corners.valid.toBoolean) {
         events += CornerEvent(Corner(dut.io.corners.x.toInt, dut.io.corners.y.toInt, dut.io.corners.score.toLong))
+        cornerClocks += cycles
+      }
       if (dut.io.frameEnds.valid.toBoolean)
         events += FrameEndEvent(FrameEnd(dut.io.frameEnds.ok.toBoolean, dut.io.frameEnds.keyframe.toBoolean))
     }
@@ -102,12 +106,17 @@ object CoreSim {
   /** Clocks enough for everything in flight to leave. */
   def drain(dut: OrbCore): Unit = dut.clockDomain.waitSampling(OrbCore.latency() + 8)
 
-  /** One complete run from reset: returns what the core emitted and its counters. */
-  def run(dut: OrbCore, beats: Seq[Beat], threshold: Long, blanking: Blanking, seed: Long): RtlResult = {
+  /** Defined inputs, clock and reset, then a monitor from the first clock after reset. */
+  def start(dut: OrbCore, threshold: Long): Monitor = {
     idle(dut, threshold)
     dut.clockDomain.forkStimulus(10)
     dut.clockDomain.waitSampling(4)
-    val monitor = new Monitor(dut)
+    new Monitor(dut)
+  }
+
+  /** One complete run from reset: returns what the core emitted and its counters. */
+  def run(dut: OrbCore, beats: Seq[Beat], threshold: Long, blanking: Blanking, seed: Long): RtlResult = {
+    val monitor = start(dut, threshold)
     drive(dut, beats, blanking, new Random(seed))
     drain(dut)
     RtlResult(monitor.events.toSeq, counters(dut), dut.io.status.corners.toLong, monitor.cycles)
