@@ -8,8 +8,11 @@ version="$(sed -n 's/^sbt\.version *= *//p' "$here/project/build.properties" | t
 if [ -z "$version" ]; then
   echo "sbt: no sbt.version in project/build.properties" >&2; exit 2
 fi
+# Plain log lines when the output is not a terminal (CI logs, pipes).
+plain=()
+[ -t 1 ] || plain=(-Dsbt.log.noformat=true)
 if command -v sbt >/dev/null 2>&1 && [ -z "${ORB_SBT_LAUNCHER:-}" ]; then
-  exec sbt "$@"
+  exec sbt "${plain[@]}" "$@"
 fi
 if ! command -v java >/dev/null 2>&1; then
   echo "sbt: no 'java' on PATH; install a JDK 11 or newer (Debian: apt-get install default-jdk-headless)" >&2; exit 2
@@ -27,4 +30,4 @@ if [ ! -s "$jar" ]; then
     echo "sbt: could not fetch org.scala-sbt:sbt-launch:$version with Maven" >&2; exit 2; }
 fi
 # Big Verilator models and image buffers want a roomy heap and stack.
-exec java ${SBT_JAVA_OPTS:--Xms512m -Xmx6g -Xss8m} -Dsbt.server.forcestart=false -jar "$jar" "$@"
+exec java ${SBT_JAVA_OPTS:--Xms512m -Xmx6g -Xss8m} "${plain[@]}" -jar "$jar" "$@"

@@ -17,7 +17,8 @@ case class RowWindowConfig(rows: Int, maxWidth: Int, dataWidth: Int) {
   *
   * Word `x` of the RAM holds the column of the `rows - 1` previous rows at x. A pixel reads its column, and one
   * clock later the column, with the new pixel on top and the oldest dropped, is written back. Consecutive pixels
-  * have different x (lines are at least 2 pixels wide), so a read never meets the write of the same word.
+  * have different x, so a read never meets the write of the same word; only a 1-pixel line could, and such a
+  * frame is either faulty or too narrow for any corner, so its output is never used.
   * One wide RAM instead of one per row: the same M4K count, one address counter, and every reader of the column
   * (Harris now, the descriptor later) shares the same rows. */
 class RowWindow(val c: RowWindowConfig) extends Area {

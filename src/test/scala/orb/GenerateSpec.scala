@@ -48,6 +48,23 @@ class GenerateSpec extends AnyFunSuite {
       assert(!text.contains(kw), s"'$kw' in the emitted Verilog")
   }
 
+  test("every memory is a RAM with a synchronous (registered) read, as Quartus needs for M4K blocks") {
+    val dump = "target/generate-test/memories.txt"
+    val script = s"read_verilog ${verilog.getPath}; hierarchy -top OrbCore; proc; opt -fast; memory -nomap; tee -q -o $dump dump t:$$mem_v2"
+    val (status, out) = tool(Seq("yosys", "-q", "-p", script))
+    assert(status == 0, out.takeRight(3000))
+    val text = scala.io.Source.fromFile(dump).mkString
+    val mems = text.split("cell \\$mem_v2 ").drop(1).map { c =>
+      val name = c.takeWhile(_ != '\n').trim
+      def param(p: String) = ("parameter \\\\" + p + " (\\S+)").r.findFirstMatchIn(c).map(_.group(1)).getOrElse("?")
+      (name, param("SIZE"), param("WIDTH"), param("RD_CLK_ENABLE"))
+    }
+    println(s"[orb] memories: ${mems.map { case (n, d, w, _) => s"$n ${d}x$w" }.mkString(", ")}")
+    assert(mems.map(_._1).toSet == Set("\\window_ram", "\\suppress_scores_ram"), text.take(2000))
+    assert(mems.forall(_._2 == "1024"), "depth = maxWidth")
+    assert(mems.forall(_._4.matches("\\d+'1+")), "every read port registered")
+  }
+
   test("Yosys reads (Verilog-2005 parser) and synthesizes the core") {
     val script = s"read_verilog ${verilog.getPath}; synth -top OrbCore; check -assert; stat"
     val (status, out) = tool(Seq("yosys", "-q", "-p", script, "-l", "target/generate-test/yosys.log"))
