@@ -37,6 +37,9 @@ Global / concurrentRestrictions += Tags.limit(Tags.Test, 1)
 lazy val root: Project = (project in file("."))
   .aggregate(LocalProject("sim"))
   .settings(name := "orb-core", spinalDeps, testSettings,
+    // The BRIEF test pattern is data (data/orb_pattern_31.csv) that the generator and the model both read.
+    Compile / unmanagedResourceDirectories += baseDirectory.value / "data",
+    Compile / unmanagedResources / includeFilter := "orb_pattern_31.csv",
     Compile / run / aggregate := false,
     Compile / runMain / aggregate := false)
 

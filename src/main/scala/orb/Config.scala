@@ -87,8 +87,41 @@ object HarrisConfig {
   def bitsSigned(maxAbs: BigInt): Int = maxAbs.bitLength + 1
 }
 
+/** ORB descriptor: orientation by intensity centroid, rotated BRIEF on a smoothed image.
+  *
+  * @param angleBins        orientation bins over 360 degrees; a multiple of 8 so that the octant folding of the
+  *                         angle search lands on bin centres. Measured against OpenCV's own angle and descriptor
+  *                         (`orb.sim.OrbFidelity`): 64 bins (the paper's) differ by 8.6-9.4 bits of 256, 256 bins by
+  *                         2.6-3.2, 512 bins by 1.5-1.9; 512 costs one more step of the angle search and
+  *                         a 512-entry cos/sin table, nothing per pixel.
+  * @param tanFracBits      fraction bits of the bin-boundary tangents the angle search compares against
+  * @param rotationFracBits fraction bits of the per-bin cos/sin used to rotate the test pattern
+  */
+case class OrbDescriptorConfig(angleBins: Int = 512, tanFracBits: Int = 18, rotationFracBits: Int = 16) {
+  require(angleBins >= 8 && angleBins % 8 == 0, "angleBins must be a multiple of 8")
+  require(tanFracBits >= 8 && tanFracBits <= 30 && rotationFracBits >= 8 && rotationFracBits <= 30)
+  def binDegrees: Double = 360.0 / angleBins
+  def binsPerOctant: Int = angleBins / 8
+  def binWidth: Int = log2Up(angleBins)
+}
+
+object OrbDescriptorConfig {
+  /** Radius of OpenCV's orientation patch, and its half widths per row (`umax`, rows 0..15). */
+  val patchRadius: Int = 15
+  val umax: Seq[Int] = Seq(15, 15, 15, 15, 14, 14, 14, 13, 13, 12, 11, 10, 9, 8, 6, 3)
+  /** The rotated tests reach at most 18 px (|(x, y)| <= 18.39 before rounding). */
+  val sampleReach: Int = 18
+  /** OpenCV's own 8-bit kernel for GaussianBlur(7x7, sigma 2): the Gaussian quantised to 1/256 with error
+    * diffusion, so that it sums to exactly 256 (used per pass: the 2-D weights sum to 2^16). */
+  val blurKernel: Seq[Int] = Seq(18, 34, 48, 56, 48, 34, 18)
+  val blurRadius: Int = 3
+}
+
 /** The whole core. Later stages (descriptor, store, matcher) add their blocks here. */
-case class OrbConfig(frame: FrameConfig = FrameConfig(), harris: HarrisConfig = HarrisConfig()) {
+case class OrbConfig(frame: FrameConfig = FrameConfig(), harris: HarrisConfig = HarrisConfig(),
+                     descriptor: OrbDescriptorConfig = OrbDescriptorConfig()) {
+  require(harris.border >= OrbDescriptorConfig.sampleReach + OrbDescriptorConfig.blurRadius &&
+    harris.border >= OrbDescriptorConfig.patchRadius, "the border must keep every descriptor sample inside the image")
   /** Raw-image rows kept by the shared line buffer: as many as its most demanding reader needs. */
   def rawRows: Int = HarrisConfig.rawRows
   def maxWidth: Int = frame.maxWidth

@@ -16,6 +16,14 @@ object OpenCv {
     m
   }
 
+  def toGray(m: Mat): GrayImage = {
+    require(m.depth() == CV_8U && m.channels() == 1)
+    val idx = m.createIndexer[UByteIndexer]()
+    val img = GrayImage(m.cols(), m.rows(), Array.tabulate(m.rows() * m.cols())(i => idx.get((i / m.cols()).toLong, (i % m.cols()).toLong)))
+    idx.release()
+    img
+  }
+
   /** A CV_64F matrix as a row-major array. */
   def doubles(m: Mat): Array[Double] = {
     require(m.depth() == CV_64F && m.channels() == 1)
