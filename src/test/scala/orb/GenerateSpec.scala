@@ -14,7 +14,7 @@ class GenerateSpec extends AnyFunSuite {
   }
 
   test("bad arguments give a one-line error and status 2") {
-    for (args <- Seq(Seq("--bogus"), Seq("--config", "nope"), Seq("--max-width", "abc"), Seq("--max-width", "5000"), Seq("--out"))) {
+    for (args <- Seq(Seq("--bogus"), Seq("--config", "nope"), Seq("--max-width", "abc"), Seq("--max-width", "5000"), Seq("--out"), Seq("--clock-mhz", "fast"))) {
       val (status, msg) = runCli(args: _*)
       assert(status == 2, args)
       assert(msg.startsWith("orb.Generate: ") && !msg.contains("\n") && !msg.contains("Exception"), s"$args -> $msg")
@@ -35,6 +35,21 @@ class GenerateSpec extends AnyFunSuite {
     val log = ProcessLogger(l => out ++= l + "\n", l => out ++= l + "\n")
     val status = try Process(cmd).!(log) catch { case e: java.io.IOException => fail(s"cannot run ${cmd.head}: install it (see README)") }
     (status, out.toString)
+  }
+
+  test("the Quartus project: Cyclone II EP2C70F896C6, every file the .qsf names exists, the clock constraint") {
+    val dir = verilog.getParentFile
+    val qsf = new File(dir, "OrbCore.qsf")
+    assert(new File(dir, "OrbCore.qpf").isFile && qsf.isFile)
+    val text = scala.io.Source.fromFile(qsf).mkString
+    assert(text.contains("-name FAMILY \"Cyclone II\"") && text.contains("-name DEVICE EP2C70F896C6") && text.contains("-name TOP_LEVEL_ENTITY OrbCore"))
+    val named = QuartusProject.namedFiles(qsf)
+    assert(named.contains("OrbCore.v") && named.contains("OrbCore.sdc"), named)
+    named.foreach(f => assert(new File(dir, f).isFile, s"$f is named by the .qsf but missing"))
+    assert(scala.io.Source.fromFile(new File(dir, "OrbCore.sdc")).mkString.contains("-period 20.000 [get_ports clk]"))
+    val fast = new File("target/generate-test-100")
+    assert(runCli("--out", fast.getPath, "--clock-mhz", "100")._1 == 0)
+    assert(scala.io.Source.fromFile(new File(fast, "OrbCore.sdc")).mkString.contains("-period 10.000 [get_ports clk]"))
   }
 
   test("Verilator lint: no warning, no error") {
