@@ -3,6 +3,7 @@ package orb
 import spinal.core._
 import spinal.lib._
 import spinal.lib.misc.pipeline._
+import Arith._
 
 /** Where each step of the detector sits in its pipeline (node index); a later node means more registers in
   * between. Steps of one node share a clock; the default puts a register after every adder tree and multiplier. */
@@ -51,10 +52,6 @@ class HarrisDetector(f: FrameConfig, h: HarrisConfig, columnRows: Int, stages: H
   /** The last `n` values of `v` (element 0 = `v` itself), advancing only on valid pixels: the horizontal extent of
     * a window, whatever the blanking. */
   private def lastValid[T <: Data](v: T, n: Int, valid: Bool): Vec[T] = History[T](v, n, valid, null.asInstanceOf[T])
-
-  /** Arithmetic shift right (floor), written as a slice so that the Verilog has no width-changing shift. */
-  private def floorShift(v: SInt, n: Int): SInt = if (n == 0) v else v(v.high downto n)
-  private def floorShift(v: UInt, n: Int): UInt = if (n == 0) v else v(v.high downto n)
 
   /** 1 2 1 smoothing of three values. */
   private def w121(a: SInt, b: SInt, c: SInt, width: Int): SInt = (a.resize(width) + (b.resize(width) |<< 1)) + c.resize(width)
@@ -120,8 +117,7 @@ class HarrisDetector(f: FrameConfig, h: HarrisConfig, columnRows: Int, stages: H
   val kTraceNode = at(stages.kTrace)
   val kTrace = new kTraceNode.Area {
     // kNum * tr^2 by shifts and adds: kNum is a small constant.
-    val terms = (0 until log2Up(h.kNum + 1)).filter(b => ((h.kNum >> b) & 1) == 1).map(b => multiply.TR2.resize(h.kTrace2Width + h.kShift) |<< b)
-    val KTR2 = insert(floorShift(terms.reduce(_ + _), h.kShift).resize(h.kTrace2Width))
+    val KTR2 = insert(floorShift(constMul(multiply.TR2, h.kNum, h.kTrace2Width + h.kShift), h.kShift).resize(h.kTrace2Width))
     val DET = insert(multiply.XXYY.intoSInt.resize(h.detWidth) - multiply.XY2.intoSInt.resize(h.detWidth))
   }
 

@@ -1,0 +1,69 @@
+package orb
+
+import orb.model._
+import orb.testbench._
+import org.scalatest.funsuite.AnyFunSuite
+import spinal.core._
+import spinal.core.sim._
+import spinal.lib._
+
+/** The tracker, a 7-row line buffer and the smoother, as the descriptor stage will use them. */
+class SmootherHarness(f: FrameConfig) extends Component {
+  val io = new Bundle {
+    val pixels = slave Flow (PixelBeat())
+    val smoothed = master Flow (SmoothedPixel(f))
+  }
+  val tracker = new FrameTracker(f)
+  val lines = new LineBuffer(f, 7)
+  val smoother = new Smoother(f, 7)
+  tracker.io.pixels << io.pixels
+  lines.io.pixels << tracker.io.tracked
+  smoother.io.columns << lines.io.columns
+  io.smoothed << smoother.io.smoothed
+}
+
+class SmootherSpec extends AnyFunSuite {
+  import TestSupport._
+  lazy val harness = {
+    println(s"[orb] compiling the smoother harness; seed = $seed")
+    CoreSim.simConfig("simWorkspace/test").compile(new SmootherHarness(config.frame))
+  }
+
+  def check(name: String, img: GrayImage, blanking: Blanking): Unit = {
+    val expected = OrbModel.smooth(img)
+    val beats = Beat.frame(img) ++ Beat.frame(img) // the second frame is processed
+    var mismatches = Vector[String](); var checked = 0
+    harness.doSim(name, seed.toInt) { dut =>
+      dut.io.pixels.valid #= false; dut.io.pixels.luma #= 0; dut.io.pixels.sof #= false
+      dut.io.pixels.eol #= false; dut.io.pixels.keyframe #= false
+      dut.clockDomain.forkStimulus(10)
+      dut.clockDomain.waitSampling(4)
+      dut.clockDomain.onSamplings {
+        val s = dut.io.smoothed
+        if (s.valid.toBoolean && s.pixel.active.toBoolean) {
+          val (x, y) = (s.pixel.x.toInt - 3, s.pixel.y.toInt - 3)
+          if (x >= 3 && y >= 3) {
+            checked += 1
+            if (s.smoothed.toInt != expected(x, y)) mismatches :+= s"($x,$y): RTL ${s.smoothed.toInt}, model ${expected(x, y)}"
+          }
+        }
+      }
+      val r = rng(name); val cd = dut.clockDomain
+      for (b <- beats) {
+        if (blanking.pixelGapProb > 0 && r.nextDouble() < blanking.pixelGapProb) { dut.io.pixels.valid #= false; cd.waitSampling(1 + r.nextInt(3)) }
+        dut.io.pixels.valid #= true; dut.io.pixels.luma #= b.luma; dut.io.pixels.sof #= b.sof; dut.io.pixels.eol #= b.eol
+        cd.waitSampling()
+      }
+      dut.io.pixels.valid #= false
+      cd.waitSampling(Smoother.latency + 8)
+    }
+    assert(checked == (img.width - 6) * (img.height - 6), s"$name: every inner pixel checked")
+    assert(mismatches.isEmpty, s"$name: ${mismatches.size} pixels differ, first ${mismatches.take(5).mkString("; ")}")
+    println(s"[orb] smoother $name: $checked pixels equal to the model")
+  }
+
+  test("smoothed image == model: noise with gaps, a real photograph") {
+    check("smooth-noise", Patterns.noise(64, 40, rng("smooth")), Blanking.random)
+    check("smooth-graf1", image("graf1.png").crop(200, 150, 200, 120), Blanking.none)
+  }
+}
