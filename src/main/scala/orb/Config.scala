@@ -96,9 +96,14 @@ object HarrisConfig {
   *                         a 512-entry cos/sin table, nothing per pixel.
   * @param tanFracBits      fraction bits of the bin-boundary tangents the angle search compares against
   * @param rotationFracBits fraction bits of the per-bin cos/sin used to rotate the test pattern
+  * @param orientationSlots corners of one row whose moments accumulate at the same time (a corner occupies a slot
+  *                         while the 31 columns of its patch pass; corners closer than 31 px share the time)
+  * @param cornerQueueDepth corners waiting for the rows of their orientation patch (about 10 rows of corners)
   */
-case class OrbDescriptorConfig(angleBins: Int = 512, tanFracBits: Int = 18, rotationFracBits: Int = 16) {
+case class OrbDescriptorConfig(angleBins: Int = 512, tanFracBits: Int = 18, rotationFracBits: Int = 16,
+                               orientationSlots: Int = 8, cornerQueueDepth: Int = 512) {
   require(angleBins >= 8 && angleBins % 8 == 0, "angleBins must be a multiple of 8")
+  require(orientationSlots >= 1 && cornerQueueDepth >= 2)
   require(tanFracBits >= 8 && tanFracBits <= 30 && rotationFracBits >= 8 && rotationFracBits <= 30)
   def binDegrees: Double = 360.0 / angleBins
   def binsPerOctant: Int = angleBins / 8
@@ -115,6 +120,8 @@ object OrbDescriptorConfig {
     * diffusion, so that it sums to exactly 256 (used per pass: the 2-D weights sum to 2^16). */
   val blurKernel: Seq[Int] = Seq(18, 34, 48, 56, 48, 34, 18)
   val blurRadius: Int = 3
+  /** For a column |u| of the orientation patch, the rows |v| <= vmax(|u|) belong to the disc. */
+  def vmax(u: Int): Int = umax.lastIndexWhere(_ >= u.abs)
 }
 
 /** The whole core. Later stages (descriptor, store, matcher) add their blocks here. */

@@ -1,0 +1,67 @@
+package orb
+
+import spinal.core._
+import spinal.lib._
+import spinal.lib.misc.pipeline._
+
+/** The orientation bin of (m10, m01) without a divider, as `orb.model.OrbModel.angleBin`: fold into the first
+  * octant (signs, swap so that b <= a), count the bin boundaries below the angle with a binary search, one
+  * comparison b 2^F >= a T_j per pipeline node, unfold. One corner per clock; latency `steps + 2`. */
+class AngleSearch(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) extends Component {
+  val io = new Bundle {
+    val input = slave Flow (OrientedCorner(f, h, d))
+    val output = master Flow (OrientedCorner(f, h, d))
+  }
+  val momentWidth = OrientationUnit.momentWidth
+  val m = d.binsPerOctant
+  val tangents = orb.model.OrbModel.boundaryTangents(d)
+  val steps = Iterator.iterate(1)(_ * 2).takeWhile(_ <= m).toSeq.reverse // m, m/2, .., 1 when m is a power of 2
+  val tWidth = log2Up(tangents.max + 1)
+  val countWidth = log2Up(m + 1)
+  val nodes = Array.fill(steps.size + 3)(Node())
+  val links = (0 until nodes.size - 1).map(i => StageLink(nodes(i), nodes(i + 1)))
+
+  val IN = Payload(OrientedCorner(f, h, d))
+  nodes(0).driveFrom(io.input)((n, p) => n(IN) := p)
+
+  val fold = new Area {
+    val n = nodes(0)
+    val ax = n(IN).m10.abs; val ay = n(IN).m01.abs
+    val swap = ay > ax
+    val SWAP = n.insert(swap)
+    val A = n.insert(Mux(swap, ay, ax))
+    val B = n.insert(Mux(swap, ax, ay))
+  }
+  // Step i (at node i + 1) tries to add `step` to the count of the steps before it.
+  val counts = scala.collection.mutable.ArrayBuffer[Payload[UInt]]()
+  for ((step, i) <- steps.zipWithIndex) {
+    val n = nodes(i + 1)
+    val before = if (i == 0) U(0, countWidth bits) else n(counts(i - 1))
+    val idx = (before +^ (step - 1)).resize(countWidth + 1)
+    val table = Vec(tangents.map(t => U(t, tWidth bits)))
+    val t = table(idx.resize(log2Up(m max 2)))
+    val take = idx < m && n(fold.A) =/= 0 &&
+      ((n(fold.B).resize(momentWidth + d.tanFracBits) |<< d.tanFracBits) >= n(fold.A) * t)
+    counts += n.insert(Mux(take, before + step, before))
+  }
+  val unfold = new Area {
+    val at = nodes(steps.size + 1)
+    val count = at(counts.last)
+    val q = Mux(at(fold.SWAP), U(2 * m, countWidth + 1 bits) - count, count.resize(countWidth + 1))
+    val n = d.angleBins
+    val bin = UInt(d.binWidth + 1 bits)
+    val right = !at(IN).m10.sign; val up = !at(IN).m01.sign
+    when(right && up) { bin := q.resized }
+      .elsewhen(!right && up) { bin := (U(n / 2, d.binWidth + 1 bits) - q).resized }
+      .elsewhen(!right && !up) { bin := (U(n / 2, d.binWidth + 1 bits) + q).resized }
+      .otherwise { bin := Mux(q === 0, U(0, d.binWidth + 1 bits), (U(n, d.binWidth + 1 bits) - q).resized) }
+    val BIN = at.insert(bin.resize(d.binWidth))
+  }
+  val out = nodes.last
+  io.output.valid := out.isValid
+  io.output.corner := out(IN).corner
+  io.output.m10 := out(IN).m10
+  io.output.m01 := out(IN).m01
+  io.output.bin := out(unfold.BIN)
+  Builder(links)
+}

@@ -1,0 +1,136 @@
+package orb
+
+import spinal.core._
+import spinal.lib._
+import spinal.lib.misc.pipeline._
+import Arith._
+
+/** A corner with its intensity moments and orientation bin. */
+case class OrientedCorner(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) extends Bundle {
+  val corner = HarrisCorner(f, h)
+  val m10, m01 = SInt(OrientationUnit.momentWidth bits)
+  val bin = UInt(d.binWidth bits)
+}
+
+/** Orientation by intensity centroid (OpenCV's IC_Angle) without storing any patch.
+  *
+  * A corner (cx, cy) waits in a queue until the raw column stream reaches row cy + 15: then the shared raw line
+  * buffer (>= 31 rows) holds its whole radius-15 disc, and the columns cx-15 .. cx+15 pass one per valid pixel.
+  * For every column, sums over the rows |v| <= d around row cy are formed once (for the 10 distinct disc heights
+  * d), shared by all corners of that row; each corner, in one of `orientationSlots` slots, picks the sums of its
+  * column offset u and accumulates m01 += sum v I and, through two running sums, m10 = sum u I. The finished
+  * moments go through a pipelined binary search over the bin-boundary tangents (one multiplier per step), so one
+  * corner per clock can leave. A corner that finds the queue full or no free slot is dropped and counted. */
+class OrientationUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, columnRows: Int) extends Component {
+  import OrbDescriptorConfig._
+  import OrientationUnit._
+  require(columnRows >= 2 * patchRadius + 1)
+  val io = new Bundle {
+    val columns = slave Flow (LineColumn(f, columnRows))
+    val corners = slave Flow (HarrisCorner(f, h))
+    val oriented = master Flow (OrientedCorner(f, h, d))
+    val dropped = out UInt (f.counterWidth bits)
+  }
+  val cw = f.coordWidth
+  val R = patchRadius
+
+  val queue = StreamFifo(HarrisCorner(f, h), d.cornerQueueDepth)
+  queue.io.push.valid := io.corners.valid
+  queue.io.push.payload := io.corners.payload
+  val queueDrop = io.corners.valid && !queue.io.push.ready
+
+  // Shared per-column sums around the centre row (column index R = R rows above the newest).
+  val sums = new Area {
+    val col = io.columns.column
+    def at(v: Int): UInt = col(R - v) // the pixel v rows below the centre
+    val heights = (0 to R).map(vmax).distinct.sorted
+    // T(dh) = sum over |v| <= dh of I(v); TV(dh) = sum over |v| <= dh of v I(v)
+    val t = heights.map(dh => (-dh to dh).map(v => at(v).resize(sumWidth)).reduceBalancedTree(_ + _))
+    val tv = heights.map(dh => (1 to dh).map(v => constMul(at(v), v, sumWidth).intoSInt - constMul(at(-v), v, sumWidth).intoSInt)
+      .reduceBalancedTree(_ + _))
+    // Registered: the slots use them one clock later, with the registered beat.
+    val T = RegNext(Vec(t))
+    val TV = RegNext(Vec(tv))
+    val valid = RegNext(io.columns.valid) init False
+    val x = RegNext(io.columns.pixel.x)
+    val y = RegNext(io.columns.pixel.y)
+    val active = RegNext(io.columns.pixel.active)
+    val frameStart = valid && x === 0 && y === 0
+    def index(u: SInt): UInt = {
+      val a = u.abs
+      val sel = UInt(log2Up(heights.size) bits)
+      sel := 0
+      for (k <- 0 to R) when(a === k) { sel := heights.indexOf(vmax(k)) }
+      sel
+    }
+  }
+
+  // Slots: a corner starts when the stream is at (cx - R, cy + R) and leaves after (cx + R, cy + R).
+  val head = queue.io.pop
+  val startHere = sums.valid && head.valid && sums.y === head.y + R && sums.x === head.x - R
+  val slots = for (s <- 0 until d.orientationSlots) yield new Area {
+    val busy = Reg(Bool()) init False
+    val corner = Reg(HarrisCorner(f, h))
+    val u = Reg(SInt(6 bits))
+    val acc1 = Reg(UInt(acc1Width bits))
+    val acc2 = Reg(UInt(acc2Width bits))
+    val m01 = Reg(SInt(momentWidth bits))
+  }
+  val free = Vec(slots.map(!_.busy))
+  val chosen = OHMasking.first(free.asBits)
+  val startOk = startHere && free.orR
+  val slotDrop = startHere && !free.orR
+  head.ready := startHere || (head.valid && sums.valid && (sums.y > head.y + R || (sums.y === head.y + R && sums.x > head.x - R)))
+  val staleDrop = head.fire && !startHere // its start column went by (a frame ended early, or the queue was late)
+  // A new frame: what is still queued or accumulating belongs to a frame that ended before its rows came.
+  queue.io.flush := sums.frameStart
+  val flushDrops = Mux(sums.frameStart, queue.io.occupancy.resize(f.counterWidth) +
+    CountOne(slots.map(_.busy)).resize(f.counterWidth), U(0, f.counterWidth bits))
+
+  val finishing = Flow(OrientedCorner(f, h, d))
+  finishing.valid := False
+  finishing.payload.assignDontCare()
+  for ((slot, i) <- slots.zipWithIndex) {
+    val starting = startOk && chosen(i)
+    val active = slot.busy || starting
+    val uNow = Mux(starting, S(-R, 6 bits), slot.u)
+    val tSel = sums.T(sums.index(uNow))
+    val tvSel = sums.TV(sums.index(uNow))
+    val a1 = Mux(starting, U(0, acc1Width bits), slot.acc1) + tSel.resize(acc1Width)
+    val a2 = Mux(starting, U(0, acc2Width bits), slot.acc2) + a1.resize(acc2Width)
+    val m01 = Mux(starting, S(0, momentWidth bits), slot.m01) + tvSel.resize(momentWidth)
+    when(starting) { slot.corner := head.payload }
+    when(sums.frameStart) {
+      slot.busy := False
+    } elsewhen (sums.valid && active) {
+      slot.acc1 := a1; slot.acc2 := a2; slot.m01 := m01; slot.u := uNow + 1
+      slot.busy := uNow =/= R
+      // The last column completes the patch: emitted only if no fault came before it in the frame.
+      when(uNow === R) {
+        finishing.valid := sums.active
+        finishing.corner := Mux(starting, head.payload, slot.corner)
+        finishing.m10 := ((a1.resize(momentWidth) |<< 4).intoSInt - a2.resize(momentWidth).intoSInt).resize(momentWidth)
+        finishing.m01 := m01
+      }
+    }
+  }
+  // At most one slot finishes per pixel: finishing corners are at distinct x of one row.
+  val bins = new AngleSearch(f, h, d)
+  bins.io.input << finishing.stage()
+  io.oriented << bins.io.output
+
+  val faultDrop = slots.map(slot => slot.busy && slot.u === R).orR && sums.valid && !sums.frameStart && !sums.active
+  val drops = Reg(UInt(f.counterWidth bits)) init 0
+  drops := drops + U(queueDrop).resize(f.counterWidth) + U(slotDrop).resize(f.counterWidth) +
+    U(staleDrop).resize(f.counterWidth) + U(faultDrop).resize(f.counterWidth) + flushDrops
+  io.dropped := drops
+}
+
+object OrientationUnit {
+  // Column sums of up to 31 pixels: 13 bits; v-weighted sums up to 255 * (1 + .. + 15) = 30600 per side: 16 bits signed.
+  val sumWidth: Int = 17
+  val acc1Width: Int = 18 // 31 columns of 13-bit sums
+  val acc2Width: Int = 23 // 31 partial sums of acc1
+  /** |m10|, |m01| <= 255 * sum |u| over the disc < 2^21 */
+  val momentWidth: Int = 24
+}
