@@ -7,7 +7,11 @@ ThisBuild / scalacOptions ++= Seq("-deprecation", "-feature", "-unchecked", "-la
 
 val spinalVersion = "1.14.2"
 val javacvVersion = "1.5.13"
-val platform = "linux-x86_64"
+// OpenCV's native libraries for this machine (JavaCV publishes one jar per platform).
+val platform = sys.props("os.arch") match {
+  case "aarch64" | "arm64" => "linux-arm64"
+  case _ => "linux-x86_64"
+}
 
 lazy val spinalDeps = Seq(
   libraryDependencies ++= Seq(

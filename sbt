@@ -4,6 +4,7 @@
 # Maven Central with Maven (`mvn dependency:copy`). Needs a JDK (11+) in either case.
 set -euo pipefail
 here="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
+cd "$here" # sbt works on the project in the current directory
 version="$(sed -n 's/^sbt\.version *= *//p' "$here/project/build.properties" | tr -d '[:space:]')"
 if [ -z "$version" ]; then
   echo "sbt: no sbt.version in project/build.properties" >&2; exit 2
@@ -12,7 +13,7 @@ fi
 plain=()
 [ -t 1 ] || plain=(-Dsbt.log.noformat=true)
 if command -v sbt >/dev/null 2>&1 && [ -z "${ORB_SBT_LAUNCHER:-}" ]; then
-  exec sbt "${plain[@]}" "$@"
+  exec sbt ${plain[@]+"${plain[@]}"} "$@"
 fi
 if ! command -v java >/dev/null 2>&1; then
   echo "sbt: no 'java' on PATH; install a JDK 11 or newer (Debian: apt-get install default-jdk-headless)" >&2; exit 2
@@ -26,8 +27,9 @@ if [ ! -s "$jar" ]; then
   fi
   echo "sbt: fetching sbt-launch $version from Maven Central into $cache (once)" >&2
   mkdir -p "$cache"
-  mvn -q -B dependency:copy "-Dartifact=org.scala-sbt:sbt-launch:$version" "-DoutputDirectory=$cache" >&2 || {
+  # Run Maven from the cache directory, so that no pom.xml around the caller interferes.
+  (cd "$cache" && mvn -q -B dependency:copy "-Dartifact=org.scala-sbt:sbt-launch:$version" "-DoutputDirectory=$cache") >&2 || {
     echo "sbt: could not fetch org.scala-sbt:sbt-launch:$version with Maven" >&2; exit 2; }
 fi
 # Big Verilator models and image buffers want a roomy heap and stack.
-exec java ${SBT_JAVA_OPTS:--Xms512m -Xmx6g -Xss8m} "${plain[@]}" -jar "$jar" "$@"
+exec java ${SBT_JAVA_OPTS:--Xms512m -Xmx6g -Xss8m} ${plain[@]+"${plain[@]}"} -jar "$jar" "$@"

@@ -2,8 +2,8 @@ package orb
 
 import spinal.core._
 
-/** Geometry limits of the pixel stream. Only `maxWidth` costs memory (it is the depth of every line buffer);
-  * `maxHeight` only sizes counters.
+/** Geometry limits of the pixel stream: longer lines or taller frames are faults. Only `maxWidth` costs memory
+  * (it is the depth of every line buffer); `maxHeight` only sizes counters.
   *
   * @param coordWidth bits of every x/y coordinate; 11 bits address up to 2047 in both directions
   */
@@ -30,8 +30,9 @@ case class FrameConfig(maxWidth: Int = 1024, maxHeight: Int = 2047, coordWidth: 
   * @param defaultThreshold the threshold the tools use: an ideal right-angle corner of 45 grey levels contrast
   *               scores about 2^18 (the score grows with the 4th power of the contrast: 32 levels ~ 67e3,
   *               64 levels ~ 1.1e6). The hardware takes the threshold at run time.
-  * @param border no corner closer than this to any image edge; the default 22 is the ORB stage's need: rotated
-  *               BRIEF tests reach 19 px, plus 3 px for the 7x7 smoothing of the sampled image
+  * @param border no corner closer than this to any image edge; the default 22 leaves the ORB stage a pixel
+  *               to spare: the rotated BRIEF tests reach 18 px (18.4 before rounding), plus 3 px for the 7x7
+  *               smoothing of the sampled image
   */
 case class HarrisConfig(
     kNum: Int = 41,
@@ -45,6 +46,7 @@ case class HarrisConfig(
   require(kNum > 0 && kShift >= 0 && kNum < (1 << kShift), "k = kNum / 2^kShift must lie in (0, 1)")
   require(windowShift >= 0 && scoreShift >= 0)
   require(border >= reach, s"border must be >= $reach: the filters need that many pixels of context")
+  require(windowShift < 32, "the window shift must leave some of the window sum")
   def k: Double = kNum.toDouble / (1 << kShift)
 
   // Worst cases, in the integer units of each stage.

@@ -28,7 +28,8 @@ class RowWindow(val c: RowWindowConfig) extends Area {
     * element r the pixel r rows above it. */
   def column(fire: Bool, x: UInt, pixel: Bits): Vec[Bits] = {
     val stored = ram.readSync(x.resize(c.addrWidth), fire)
-    val fireD = RegNext(fire) init False
+    // After a fault x saturates at maxWidth: such a pixel is never stored (its frame's output is void anyway).
+    val fireD = RegNext(fire && x < c.maxWidth) init False
     val xD = RegNext(x.resize(c.addrWidth))
     val col = Vec(Bits(c.dataWidth bits), c.rows)
     col(0) := RegNext(pixel)

@@ -52,8 +52,15 @@ class GenerateSpec extends AnyFunSuite {
     assert(scala.io.Source.fromFile(new File(fast, "OrbCore.sdc")).mkString.contains("-period 10.000 [get_ports clk]"))
   }
 
-  test("Verilator lint: no warning, no error") {
-    val (status, out) = tool(Seq("verilator", "--lint-only", "--top-module", "OrbCore", verilog.getPath))
+  test("--help lists every option and exits 0") {
+    val out = new ByteArrayOutputStream()
+    val status = Console.withOut(out)(Generate.run(Seq("--help")))
+    assert(status == 0)
+    for (opt <- Seq("--out", "--config", "--max-width", "--clock-mhz")) assert(out.toString.contains(opt), opt)
+  }
+
+  test("Verilator lint as Verilog-2001: no warning, no error") {
+    val (status, out) = tool(Seq("verilator", "--lint-only", "--default-language", "1364-2001", "--top-module", "OrbCore", verilog.getPath))
     assert(status == 0 && !out.contains("%Warning") && !out.contains("%Error"), out)
   }
 
