@@ -77,4 +77,7 @@ class OrientationSpec extends AnyFunSuite {
     check("orient-boxes", Patterns.boxes(120, 90, rng("orient"), n = 20), Blanking.random)
     check("orient-graf1", image("graf1.png").crop(100, 100, 320, 200), Blanking.camera)
   }
+  test("full-size photographs: every corner oriented, none dropped (aero1 640x480, 1239 corners, no blanking)") {
+    check("orient-aero1", image("aero1.png"), Blanking.none)
+  }
 }
