@@ -50,22 +50,14 @@ class FrameTrackerSpec extends AnyFunSuite {
       val got = ArrayBuffer[TrackedBeat]()
       var counters: FrameCounters = null
       tracker.doSim(s"tracker-$run", seed.toInt) { dut =>
-        dut.io.pixels.valid #= false; dut.io.pixels.luma #= 0; dut.io.pixels.sof #= false
-        dut.io.pixels.eol #= false; dut.io.pixels.keyframe #= false
-        dut.clockDomain.forkStimulus(10)
-        dut.clockDomain.waitSampling(4)
+        orb.testbench.CoreSim.idlePixels(dut.io.pixels)
+        orb.testbench.CoreSim.startClock(dut.clockDomain)
         dut.clockDomain.onSamplings {
           val t = dut.io.tracked
           if (t.valid.toBoolean) got += TrackedBeat(t.luma.toInt, t.x.toInt, t.y.toInt, t.active.toBoolean, t.ends.toBoolean,
             t.ends.toBoolean && t.end.ok.toBoolean, if (t.ends.toBoolean) t.end.keyframe.toBoolean else false)
         }
-        for (b <- beats) {
-          if (r.nextInt(4) == 0) { dut.io.pixels.valid #= false; dut.clockDomain.waitSampling(1 + r.nextInt(2)) }
-          dut.io.pixels.valid #= true; dut.io.pixels.luma #= b.luma; dut.io.pixels.sof #= b.sof
-          dut.io.pixels.eol #= b.eol; dut.io.pixels.keyframe #= b.keyframe
-          dut.clockDomain.waitSampling()
-        }
-        dut.io.pixels.valid #= false
+        orb.testbench.CoreSim.drivePixels(dut.io.pixels, dut.clockDomain, beats, orb.testbench.Blanking.random, r)
         dut.clockDomain.waitSampling(3)
         counters = FrameCounters(dut.io.counters.frames.toLong, dut.io.counters.badFrames.toLong, dut.io.counters.badLines.toLong)
       }

@@ -47,24 +47,15 @@ class OrientationSpec extends AnyFunSuite {
     val got = scala.collection.mutable.ArrayBuffer[(Int, Int, Long, Long, Long, Int)]()
     var dropped = -1L
     harness.doSim(name, seed.toInt) { dut =>
-      dut.io.pixels.valid #= false; dut.io.pixels.luma #= 0; dut.io.pixels.sof #= false
-      dut.io.pixels.eol #= false; dut.io.pixels.keyframe #= false; dut.io.threshold #= threshold
-      dut.clockDomain.forkStimulus(10)
-      dut.clockDomain.waitSampling(4)
+      CoreSim.idlePixels(dut.io.pixels)
+      dut.io.threshold #= threshold
+      CoreSim.startClock(dut.clockDomain)
       dut.clockDomain.onSamplings {
         val o = dut.io.oriented
         if (o.valid.toBoolean) got += ((o.corner.x.toInt, o.corner.y.toInt, o.corner.score.toLong, o.m10.toLong, o.m01.toLong, o.bin.toInt))
       }
-      val r = rng(name); val cd = dut.clockDomain
-      for (b <- Beat.frame(img) ++ Beat.frame(img)) {
-        if (b.sof) { dut.io.pixels.valid #= false; cd.waitSampling(1 + r.nextInt(50)) }
-        if (blanking.pixelGapProb > 0 && r.nextDouble() < blanking.pixelGapProb) { dut.io.pixels.valid #= false; cd.waitSampling(1 + r.nextInt(3)) }
-        dut.io.pixels.valid #= true; dut.io.pixels.luma #= b.luma; dut.io.pixels.sof #= b.sof; dut.io.pixels.eol #= b.eol
-        cd.waitSampling()
-        if (b.eol && blanking.lineGap._2 > 0) { dut.io.pixels.valid #= false; cd.waitSampling(blanking.lineGap._1 + r.nextInt(blanking.lineGap._2 - blanking.lineGap._1 + 1)) }
-      }
-      dut.io.pixels.valid #= false
-      cd.waitSampling(50)
+      CoreSim.drivePixels(dut.io.pixels, dut.clockDomain, Beat.frame(img) ++ Beat.frame(img), blanking, rng(name))
+      dut.clockDomain.waitSampling(50)
       dropped = dut.io.dropped.toLong
     }
     val diffs = expected.zipAll(got, null, null).filter { case (a, b) => a != b }

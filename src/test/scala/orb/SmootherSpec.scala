@@ -34,10 +34,8 @@ class SmootherSpec extends AnyFunSuite {
     val beats = Beat.frame(img) ++ Beat.frame(img) // the second frame is processed
     var mismatches = Vector[String](); var checked = 0
     harness.doSim(name, seed.toInt) { dut =>
-      dut.io.pixels.valid #= false; dut.io.pixels.luma #= 0; dut.io.pixels.sof #= false
-      dut.io.pixels.eol #= false; dut.io.pixels.keyframe #= false
-      dut.clockDomain.forkStimulus(10)
-      dut.clockDomain.waitSampling(4)
+      CoreSim.idlePixels(dut.io.pixels)
+      CoreSim.startClock(dut.clockDomain)
       dut.clockDomain.onSamplings {
         val s = dut.io.smoothed
         if (s.valid.toBoolean && s.pixel.active.toBoolean) {
@@ -48,14 +46,8 @@ class SmootherSpec extends AnyFunSuite {
           }
         }
       }
-      val r = rng(name); val cd = dut.clockDomain
-      for (b <- beats) {
-        if (blanking.pixelGapProb > 0 && r.nextDouble() < blanking.pixelGapProb) { dut.io.pixels.valid #= false; cd.waitSampling(1 + r.nextInt(3)) }
-        dut.io.pixels.valid #= true; dut.io.pixels.luma #= b.luma; dut.io.pixels.sof #= b.sof; dut.io.pixels.eol #= b.eol
-        cd.waitSampling()
-      }
-      dut.io.pixels.valid #= false
-      cd.waitSampling(Smoother.latency + 8)
+      CoreSim.drivePixels(dut.io.pixels, dut.clockDomain, beats, blanking, rng(name))
+      dut.clockDomain.waitSampling(Smoother.latency + 8)
     }
     assert(checked == (img.width - 6) * (img.height - 6), s"$name: every inner pixel checked")
     assert(mismatches.isEmpty, s"$name: ${mismatches.size} pixels differ, first ${mismatches.take(5).mkString("; ")}")

@@ -4,6 +4,7 @@ import orb._
 import orb.model._
 import spinal.core._
 import spinal.core.sim._
+import spinal.lib.Flow
 
 import scala.collection.mutable.ArrayBuffer
 import scala.util.Random
@@ -51,15 +52,23 @@ object CoreSim {
   def compile(cfg: OrbConfig, workspace: String = "simWorkspace", wave: Boolean = false): SimCompiled[OrbCore] =
     simConfig(workspace, wave).compile(new OrbCore(cfg))
 
+  /** A pixel port at rest (valid low, every field defined): call before the first clock edge. */
+  def idlePixels(pixels: Flow[PixelBeat]): Unit = {
+    pixels.valid #= false
+    pixels.luma #= 0
+    pixels.sof #= false
+    pixels.eol #= false
+    pixels.keyframe #= false
+  }
+
   /** Drives every input to a defined value; call before the first clock edge. */
   def idle(dut: OrbCore, threshold: Long): Unit = {
-    dut.io.pixels.valid #= false
-    dut.io.pixels.luma #= 0
-    dut.io.pixels.sof #= false
-    dut.io.pixels.eol #= false
-    dut.io.pixels.keyframe #= false
+    idlePixels(dut.io.pixels)
     dut.io.harrisThreshold #= threshold
   }
+
+  /** Clock and reset for any block with a pixel port: defined inputs first, as Verilator 5 needs. */
+  def startClock(cd: ClockDomain): Unit = { cd.forkStimulus(10); cd.waitSampling(4) }
 
   /** Records every corner and frame end the core emits, from now on. */
   final class Monitor(dut: OrbCore) {
@@ -81,27 +90,31 @@ object CoreSim {
   def counters(dut: OrbCore): FrameCounters =
     FrameCounters(dut.io.status.frames.toLong, dut.io.status.badFrames.toLong, dut.io.status.badLines.toLong)
 
-  /** Sends `beats` with the given blanking, one pixel per clock at most; `progress` is called every 64k beats. */
-  def drive(dut: OrbCore, beats: Seq[Beat], blanking: Blanking, rng: Random, progress: Int => Unit = _ => ()): Unit = {
-    val cd = dut.clockDomain
-    def gap(n: Int): Unit = if (n > 0) { dut.io.pixels.valid #= false; cd.waitSampling(n) }
+  /** Sends `beats` on a pixel port with the given blanking, one pixel per clock at most; `progress` is called
+    * every 64k beats. */
+  def drivePixels(pixels: Flow[PixelBeat], cd: ClockDomain, beats: Seq[Beat], blanking: Blanking, rng: Random,
+                  progress: Int => Unit = _ => ()): Unit = {
+    def gap(n: Int): Unit = if (n > 0) { pixels.valid #= false; cd.waitSampling(n) }
     def uniform(r: (Int, Int)) = r._1 + rng.nextInt(r._2 - r._1 + 1)
     var i = 0
     for (b <- beats) {
       if (b.sof) gap(uniform(blanking.frameGap))
-      dut.io.pixels.valid #= true
-      dut.io.pixels.luma #= b.luma
-      dut.io.pixels.sof #= b.sof
-      dut.io.pixels.eol #= b.eol
-      dut.io.pixels.keyframe #= b.keyframe
+      pixels.valid #= true
+      pixels.luma #= b.luma
+      pixels.sof #= b.sof
+      pixels.eol #= b.eol
+      pixels.keyframe #= b.keyframe
       cd.waitSampling()
       if (b.eol) gap(uniform(blanking.lineGap))
       if (blanking.pixelGapProb > 0 && rng.nextDouble() < blanking.pixelGapProb) gap(1 + rng.nextInt(blanking.maxPixelGap max 1))
       i += 1
       if ((i & 0xffff) == 0) progress(i)
     }
-    dut.io.pixels.valid #= false
+    pixels.valid #= false
   }
+
+  def drive(dut: OrbCore, beats: Seq[Beat], blanking: Blanking, rng: Random, progress: Int => Unit = _ => ()): Unit =
+    drivePixels(dut.io.pixels, dut.clockDomain, beats, blanking, rng, progress)
 
   /** Clocks enough for everything in flight to leave. */
   def drain(dut: OrbCore): Unit = dut.clockDomain.waitSampling(OrbCore.latency() + 8)
@@ -109,8 +122,7 @@ object CoreSim {
   /** Defined inputs, clock and reset, then a monitor from the first clock after reset. */
   def start(dut: OrbCore, threshold: Long): Monitor = {
     idle(dut, threshold)
-    dut.clockDomain.forkStimulus(10)
-    dut.clockDomain.waitSampling(4)
+    startClock(dut.clockDomain)
     new Monitor(dut)
   }
 

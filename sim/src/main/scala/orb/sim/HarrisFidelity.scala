@@ -88,24 +88,10 @@ object HarrisFidelity {
 
   def main(args: Array[String]): Unit = {
     val cfg = OrbConfig.default
-    var threshold = cfg.harris.defaultThreshold
-    val images = scala.collection.mutable.ArrayBuffer[String]()
-    def bad(msg: String): Nothing = { System.err.println(s"orb.sim.HarrisFidelity: $msg"); sys.exit(2) }
-    var rest = args.toList
-    while (rest.nonEmpty) rest match {
-      case "--help" :: _ => println(usage); sys.exit(0)
-      case "--threshold" :: t :: tail => threshold = t.toLongOption.filter(_ >= 0).getOrElse(bad(s"--threshold takes a non-negative integer, not '$t'")); rest = tail
-      case opt :: _ if opt.startsWith("--") => bad(s"unknown option '$opt' (see --help)")
-      case f :: tail => images += f; rest = tail
-      case Nil =>
-    }
-    val files = if (images.nonEmpty) images.toSeq
-                else Option(new java.io.File("data").listFiles()).toSeq.flatten.map(_.getPath).filter(_.endsWith(".png")).sorted
-    println(s"Harris model vs float reference (OpenCV Sobel + sepFilter2D, doubles), threshold $threshold, border ${cfg.harris.border}")
+    val cli = new Cli("orb.sim.HarrisFidelity", usage, withBins = false)
+    val o = cli.parse(args, cfg.harris.defaultThreshold, cfg.descriptor.angleBins)
+    println(s"Harris model vs float reference (OpenCV Sobel + sepFilter2D, doubles), threshold ${o.threshold}, border ${cfg.harris.border}")
     println(header)
-    for (f <- files) {
-      val img = try GrayImage.load(f) catch { case e: IllegalArgumentException => bad(e.getMessage) }
-      println(row(measure(new java.io.File(f).getName, img, cfg, threshold)))
-    }
+    for (f <- o.images) println(row(measure(new java.io.File(f).getName, cli.load(f), cfg, o.threshold)))
   }
 }

@@ -78,29 +78,14 @@ object OrbFidelity {
 
   def main(args: Array[String]): Unit = {
     val base = OrbConfig.default
-    var threshold = base.harris.defaultThreshold
-    var bins = Seq(base.descriptor.angleBins)
-    val images = scala.collection.mutable.ArrayBuffer[String]()
-    def bad(msg: String): Nothing = { System.err.println(s"orb.sim.OrbFidelity: $msg"); sys.exit(2) }
-    var rest = args.toList
-    while (rest.nonEmpty) rest match {
-      case "--help" :: _ => println(usage); sys.exit(0)
-      case "--threshold" :: t :: tail => threshold = t.toLongOption.filter(_ >= 0).getOrElse(bad(s"--threshold takes a non-negative integer, not '$t'")); rest = tail
-      case "--bins" :: b :: tail =>
-        bins = b.split(",").toSeq.map(s => s.trim.toIntOption.filter(n => n >= 8 && n % 8 == 0).getOrElse(bad(s"--bins takes multiples of 8, not '$s'"))); rest = tail
-      case opt :: _ if opt.startsWith("--") => bad(s"unknown option '$opt' (see --help)")
-      case f :: tail => images += f; rest = tail
-      case Nil =>
-    }
-    val files = if (images.nonEmpty) images.toSeq
-                else Option(new java.io.File("data").listFiles()).toSeq.flatten.map(_.getPath).filter(_.endsWith(".png")).sorted
-    println(s"ORB model vs OpenCV ORB (nlevels 1) at the model's Harris corners, threshold $threshold")
+    val cli = new Cli("orb.sim.OrbFidelity", usage, withBins = true)
+    val o = cli.parse(args, base.harris.defaultThreshold, base.descriptor.angleBins)
+    println(s"ORB model vs OpenCV ORB (nlevels 1) at the model's Harris corners, threshold ${o.threshold}")
     println("engine: OpenCV given our angle; end2end: OpenCV's own angle; Hamming bits of 256, mean")
     println(header)
-    for (f <- files; n <- bins) {
-      val img = try GrayImage.load(f) catch { case e: IllegalArgumentException => bad(e.getMessage) }
+    for (f <- o.images; n <- o.bins) {
       val cfg = base.copy(descriptor = OrbDescriptorConfig(angleBins = n))
-      println(row(measure(new java.io.File(f).getName, img, cfg, threshold), n))
+      println(row(measure(new java.io.File(f).getName, cli.load(f), cfg, o.threshold), n))
     }
   }
 }
