@@ -62,6 +62,8 @@ class AngleSearch(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) exten
   io.output.corner := out(IN).corner
   io.output.m10 := out(IN).m10
   io.output.m01 := out(IN).m01
+  io.output.startRow := out(IN).startRow
+  io.output.frameParity := out(IN).frameParity
   io.output.bin := out(unfold.BIN)
   Builder(links)
 }

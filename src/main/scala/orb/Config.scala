@@ -101,11 +101,18 @@ object HarrisConfig {
   * @param orientationSlots corners of one row whose moments accumulate at the same time (a corner occupies a slot
   *                         while the 31 columns of its patch pass; corners closer than 31 px share the time)
   * @param cornerQueueDepth corners waiting for the rows of their orientation patch (about 10 rows of corners)
+  * @param slackRows        rows after its patch is complete during which a corner's descriptor may still be
+  *                         computed (each costs one more smoothed row of memory); a corner not done by then is
+  *                         dropped and counted
+  * @param readyQueueDepth  oriented corners waiting for a descriptor engine
   */
 case class OrbDescriptorConfig(angleBins: Int = 512, tanFracBits: Int = 18, rotationFracBits: Int = 16,
-                               orientationSlots: Int = 8, cornerQueueDepth: Int = 512) {
+                               orientationSlots: Int = 8, cornerQueueDepth: Int = 512,
+                               slackRows: Int = 4, readyQueueDepth: Int = 128) {
   require(angleBins >= 8 && angleBins % 8 == 0, "angleBins must be a multiple of 8")
-  require(orientationSlots >= 1 && cornerQueueDepth >= 2)
+  require(orientationSlots >= 1 && cornerQueueDepth >= 2 && slackRows >= 1 && readyQueueDepth >= 2)
+  /** Smoothed rows kept: the 37 a descriptor reads plus `slackRows` in which it may still be computed. */
+  def smoothedRows: Int = 2 * OrbDescriptorConfig.sampleReach + 1 + slackRows
   require(tanFracBits >= 8 && tanFracBits <= 30 && rotationFracBits >= 8 && rotationFracBits <= 30)
   def binDegrees: Double = 360.0 / angleBins
   def binsPerOctant: Int = angleBins / 8

@@ -10,6 +10,10 @@ case class OrientedCorner(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfi
   val corner = HarrisCorner(f, h)
   val m10, m01 = SInt(OrientationUnit.momentWidth bits)
   val bin = UInt(d.binWidth bits)
+  /** rows are counted from reset, across frames: the row whose start means the corner's smoothed patch is complete */
+  val startRow = UInt(OrientationUnit.rowCountWidth bits)
+  /** parity of the corner's frame (frames counted from reset) */
+  val frameParity = Bool()
 }
 
 /** Orientation by intensity centroid (OpenCV's IC_Angle) without storing any patch.
@@ -56,6 +60,13 @@ class OrientationUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, c
     val y = RegNext(io.columns.pixel.y)
     val active = RegNext(io.columns.pixel.active)
     val frameStart = valid && x === 0 && y === 0
+    // Rows and frames counted since reset, the same way the descriptor unit counts them on its stream.
+    val rowCount = Reg(UInt(rowCountWidth bits)) init 0
+    val parity = Reg(Bool()) init False
+    val rowNow = Mux(valid && x === 0, rowCount + 1, rowCount)
+    val parityNow = parity ^ frameStart
+    when(valid && x === 0) { rowCount := rowCount + 1 }
+    when(frameStart) { parity := !parity }
     def index(u: SInt): UInt = {
       val a = u.abs
       val sel = UInt(log2Up(heights.size) bits)
@@ -111,6 +122,9 @@ class OrientationUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, c
         finishing.corner := Mux(starting, head.payload, slot.corner)
         finishing.m10 := ((a1.resize(momentWidth) |<< 4).intoSInt - a2.resize(momentWidth).intoSInt).resize(momentWidth)
         finishing.m01 := m01
+        // This beat is in row cy + R; the descriptor's 37 smoothed rows are complete when row cy + 22 starts.
+        finishing.startRow := sums.rowNow + (OrbDescriptorConfig.sampleReach + OrbDescriptorConfig.blurRadius + 1 - R)
+        finishing.frameParity := sums.parityNow
       }
     }
   }
@@ -133,4 +147,6 @@ object OrientationUnit {
   val acc2Width: Int = 23 // 31 partial sums of acc1
   /** |m10|, |m01| <= 255 * sum |u| over the disc < 2^21 */
   val momentWidth: Int = 24
+  /** rows counted since reset, wrapping: only differences of a few rows are ever used */
+  val rowCountWidth: Int = 12
 }

@@ -1,0 +1,216 @@
+package orb
+
+import spinal.core._
+import spinal.lib._
+import Arith._
+
+/** A finished ORB feature. `descriptor(i)` is test i: byte i/8, bit i%8 of OpenCV's descriptor. */
+case class OrbFeature(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) extends Bundle {
+  val x, y = UInt(f.coordWidth bits)
+  val bin = UInt(d.binWidth bits)
+  val score = UInt(h.scoreWidth bits)
+  val descriptor = Bits(256 bits)
+}
+
+/** Rotated BRIEF, as `orb.model.OrbModel.descriptor`, on a store of smoothed rows.
+  *
+  * Store: `smoothedRows` (37 + slackRows) rows, one RAM per row used as a ring; the smoothed stream writes the row
+  * of the current raw row. A corner's 37 rows are complete when row cy + 22 starts; from then on it has
+  * `slackRows` row starts before its oldest row is overwritten, and is dropped (counted) if it is not done by then.
+  *
+  * Engines: two, in parallel; engine 0 reads every row RAM through its read/write port (never on the row being
+  * written), engine 1 through the second port. An engine evaluates one test per clock: both points rotated on the
+  * fly with the bin's cos/sin (x' = round(x cos - y sin), y' = round(x sin + y cos), half to even), both read in the
+  * same clock from their two row RAMs, compared; a test whose two points share a row takes two clocks. Corners
+  * are handed to the engines in turn and their features collected in the same turn, so they leave in raster
+  * order. A full output FIFO drops (and counts) a feature rather than stalling the camera. */
+class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) extends Component {
+  import OrbDescriptorConfig.sampleReach
+  val io = new Bundle {
+    val smoothed = slave Flow (SmoothedPixel(f))
+    val corners = slave Flow (OrientedCorner(f, h, d))
+    val features = master Stream (OrbFeature(f, h, d))
+    val dropped = out UInt (f.counterWidth bits)
+  }
+  val rows = d.smoothedRows
+  val slotWidth = log2Up(rows)
+  val addrWidth = f.addrWidth
+  val span = 2 * sampleReach // rows from the oldest to the newest of a patch
+  /** v mod rows, for 0 <= v < 3 rows */
+  def wrap(v: UInt): UInt = {
+    val w = v.resize(slotWidth + 2)
+    val once = Mux(w >= rows, w - rows, w)
+    Mux(once >= rows, once - rows, once).resize(slotWidth)
+  }
+
+  // The smoothed stream: beat (x, y) carries the smoothed pixel (x - 3, y - 3) of raw row y.
+  val stream = new Area {
+    val s = io.smoothed
+    val rowStart = s.valid && s.pixel.x === 0
+    val frameStart = rowStart && s.pixel.y === 0
+    val slot = Reg(UInt(slotWidth bits)) init 0
+    val slotNow = Mux(rowStart, wrap(slot +^ 1), slot)
+    val rowCount = Reg(UInt(OrientationUnit.rowCountWidth bits)) init 0
+    val rowNow = Mux(rowStart, rowCount + 1, rowCount)
+    val parity = Reg(Bool()) init False
+    val parityNow = parity ^ frameStart
+    when(rowStart) { slot := slotNow; rowCount := rowNow }
+    when(frameStart) { parity := !parity }
+    // How the last processed frame ended (a corner of the previous frame may still start in the next one).
+    val lastEndOk = Reg(Bool()) init False
+    when(s.valid && s.pixel.ends) { lastEndOk := s.pixel.end.ok }
+    val write = s.valid && s.pixel.x >= OrbDescriptorConfig.blurRadius
+    val writeAddr = (s.pixel.x - OrbDescriptorConfig.blurRadius).resize(addrWidth)
+  }
+
+  val ready = StreamFifo(OrientedCorner(f, h, d), d.readyQueueDepth)
+  ready.io.push.valid := io.corners.valid
+  ready.io.push.payload := io.corners.payload
+  val queueDrop = io.corners.valid && !ready.io.push.ready
+
+  val tests = Pattern.tests
+  val coordWidth = 6 // rotated offsets lie in [-18, 18]
+  val csWidth = d.rotationFracBits + 2
+  val cosSin = Vec((0 until d.angleBins).map { b =>
+    val (c, s) = orb.model.OrbModel.cosSin(b, d)
+    S(c, csWidth bits) ## S(s, csWidth bits)
+  })
+  val pattern = Vec(tests.map(t => Seq(t.x1, t.y1, t.x2, t.y2).map(v => S(v, 5 bits).asBits).reduce(_ ## _)))
+
+  /** x cos - y sin and x sin + y cos, each rounded half to even (OpenCV's cvRound). */
+  def rotate(x: SInt, y: SInt, c: SInt, s: SInt): (SInt, SInt) = {
+    def round(v: SInt): SInt = {
+      val fb = d.rotationFracBits
+      val q = floorShift(v, fb)
+      val r = v(fb - 1 downto 0).asUInt
+      val half = U(BigInt(1) << (fb - 1), fb bits)
+      val up = r > half || (r === half && q.lsb)
+      (q + Mux(up, S(1, q.getWidth bits), S(0, q.getWidth bits))).resize(coordWidth)
+    }
+    (round(x * c - y * s), round(x * s + y * c))
+  }
+
+  case class EnginePort() extends Bundle {
+    val enable = Bool()
+    val address = UInt(addrWidth bits)
+  }
+
+  val engines = for (e <- 0 until 2) yield new Area {
+    val busy, done, drop = Reg(Bool()) init False
+    val corner = Reg(OrientedCorner(f, h, d))
+    val base = Reg(UInt(slotWidth bits))
+    val rowsLeft = Reg(UInt(log2Up(d.slackRows + 1) bits))
+    val t = Reg(UInt(9 bits))
+    val secondRead = Reg(Bool()) init False
+    val bits = Reg(UInt(9 bits))
+    val descriptor = Reg(Bits(256 bits))
+    val cs = Reg(Bits(2 * csWidth bits))
+
+    // This clock's test.
+    val p = pattern(t.resize(8))
+    val Seq(x1, y1, x2, y2) = (0 until 4).map(i => p((3 - i) * 5, 5 bits).asSInt)
+    val c = cs(csWidth, csWidth bits).asSInt; val s = cs(0, csWidth bits).asSInt
+    val (rx1, ry1) = rotate(x1, y1, c, s)
+    val (rx2, ry2) = rotate(x2, y2, c, s)
+    def slotOf(ry: SInt): UInt = wrap(base +^ (ry + sampleReach).asUInt.resize(slotWidth + 1))
+    def colOf(rx: SInt): UInt = (corner.corner.x.intoSInt + rx).asUInt.resize(addrWidth)
+    val slot1 = slotOf(ry1); val slot2 = slotOf(ry2)
+    val sameRow = ry1 === ry2
+    val running = busy && t =/= 256
+    val read1 = running && (!sameRow || !secondRead)
+    val read2 = running && (!sameRow || secondRead)
+    val ports = Vec(EnginePort(), rows)
+    for (r <- 0 until rows) {
+      val hit1 = read1 && slot1 === r
+      val hit2 = read2 && slot2 === r
+      ports(r).enable := hit1 || hit2
+      ports(r).address := Mux(hit1, colOf(rx1), colOf(rx2))
+    }
+    when(running) {
+      when(sameRow && !secondRead) { secondRead := True } otherwise { secondRead := False; t := t + 1 }
+    }
+    // One clock later: the read data, from the RAMs chosen one clock earlier.
+    val readData = Vec(UInt(8 bits), rows)
+    val slot1D = RegNext(slot1); val slot2D = RegNext(slot2)
+    val firstOfPair = RegNext(running && sameRow && !secondRead) init False
+    val completes = RegNext(running && (!sameRow || secondRead)) init False
+    val pairedD = RegNext(running && sameRow) init False
+    val held = Reg(UInt(8 bits))
+    when(firstOfPair) { held := readData(slot1D) }
+    val v1 = Mux(pairedD, held, readData(slot1D))
+    val v2 = readData(slot2D)
+    when(busy && completes) {
+      descriptor := (v1 < v2) ## descriptor(255 downto 1)
+      bits := bits + 1
+    }
+    when(busy && bits === 256) { busy := False; done := True }
+  }
+
+  // The store: one RAM per row. Port A writes the streamed row or serves engine 0; port B serves engine 1.
+  val store = for (r <- 0 until rows) yield new Area {
+    val ram = Mem(UInt(8 bits), f.maxWidth)
+    val writeHere = stream.write && stream.slotNow === r
+    val e0 = engines(0).ports(r); val e1 = engines(1).ports(r)
+    engines(0).readData(r) := ram.readWriteSync(Mux(writeHere, stream.writeAddr, e0.address), io.smoothed.smoothed,
+      writeHere || e0.enable, writeHere)
+    engines(1).readData(r) := ram.readSync(e1.address, e1.enable)
+  }
+
+  // Handing corners to the engines in turn.
+  val dispatch = new Area {
+    val next = Reg(UInt(1 bits)) init 0
+    val head = ready.io.pop
+    val since = (stream.rowNow - head.startRow).asSInt // rows since the patch was complete (negative: not yet)
+    val due = stream.s.valid && head.valid && !since.msb
+    val late = since.asUInt >= d.slackRows
+    val sameFrame = head.frameParity === stream.parityNow
+    val dataOk = Mux(sameFrame, stream.s.pixel.active, stream.lastEndOk)
+    val engineFree = Vec(engines.map(e => !e.busy && !e.done))(next)
+    head.ready := due && (engineFree || late || !dataOk)
+    val start = due && engineFree && !late && dataOk
+    val refused = head.fire && !start
+    for ((e, i) <- engines.zipWithIndex) when(start && next === i) {
+      e.busy := True; e.drop := False
+      e.corner := head.payload
+      // the newest patch row (cy + 18) is in the slot of raw row cy + 21, `since + 1` rows back
+      e.base := wrap(stream.slotNow.resize(slotWidth + 2) + (2 * rows - 1 - span) - since.asUInt.resize(slotWidth + 2))
+      e.rowsLeft := (d.slackRows - since.asUInt).resize(e.rowsLeft.getWidth)
+      e.t := 0; e.bits := 0; e.secondRead := False
+      e.cs := cosSin(head.bin)
+    }
+    when(start) { next := next + 1 }
+  }
+  // A row start overwrites the oldest slot: an engine whose slack runs out gives up its corner.
+  for (e <- engines) when(stream.rowStart && e.busy) {
+    e.rowsLeft := e.rowsLeft - 1
+    when(e.rowsLeft === 1) { e.busy := False; e.done := True; e.drop := True }
+  }
+
+  // Collecting in the same turn keeps raster order.
+  val collect = new Area {
+    val next = Reg(UInt(1 bits)) init 0
+    val out = StreamFifo(OrbFeature(f, h, d), 16)
+    val e = Vec(engines.map(_.done))(next)
+    val drop = Vec(engines.map(_.drop))(next)
+    val sel = engines.map(_.corner)
+    val corner = Vec(sel)(next)
+    out.io.push.valid := e && !drop
+    out.io.push.x := corner.corner.x
+    out.io.push.y := corner.corner.y
+    out.io.push.bin := corner.bin
+    out.io.push.score := corner.corner.score
+    out.io.push.descriptor := Vec(engines.map(_.descriptor))(next)
+    val outputDrop = e && !drop && !out.io.push.ready
+    val engineDrop = e && drop
+    when(e) {
+      next := next + 1
+      for ((en, i) <- engines.zipWithIndex) when(next === i) { en.done := False }
+    }
+    io.features << out.io.pop
+  }
+
+  val drops = Reg(UInt(f.counterWidth bits)) init 0
+  drops := drops + U(queueDrop).resize(f.counterWidth) + U(dispatch.refused).resize(f.counterWidth) +
+    U(collect.outputDrop).resize(f.counterWidth) + U(collect.engineDrop).resize(f.counterWidth)
+  io.dropped := drops
+}
