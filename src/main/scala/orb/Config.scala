@@ -108,7 +108,7 @@ object HarrisConfig {
   */
 case class OrbDescriptorConfig(angleBins: Int = 512, tanFracBits: Int = 18, rotationFracBits: Int = 16,
                                orientationSlots: Int = 8, cornerQueueDepth: Int = 512,
-                               slackRows: Int = 4, readyQueueDepth: Int = 128) {
+                               slackRows: Int = 8, readyQueueDepth: Int = 128) {
   require(angleBins >= 8 && angleBins % 8 == 0, "angleBins must be a multiple of 8")
   require(orientationSlots >= 1 && cornerQueueDepth >= 2 && slackRows >= 1 && readyQueueDepth >= 2)
   /** Smoothed rows kept: the 37 a descriptor reads plus `slackRows` in which it may still be computed. */
