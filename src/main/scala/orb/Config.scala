@@ -129,6 +129,8 @@ object OrbDescriptorConfig {
     * diffusion, so that it sums to exactly 256 (used per pass: the 2-D weights sum to 2^16). */
   val blurKernel: Seq[Int] = Seq(18, 34, 48, 56, 48, 34, 18)
   val blurRadius: Int = 3
+  /** A corner's descriptor can start when raw row cy + startRowOffset begins: its 37 smoothed rows are complete. */
+  val startRowOffset: Int = sampleReach + blurRadius + 1
   /** For a column |u| of the orientation patch, the rows |v| <= vmax(|u|) belong to the disc. */
   def vmax(u: Int): Int = umax.lastIndexWhere(_ >= u.abs)
 }
@@ -138,8 +140,9 @@ case class OrbConfig(frame: FrameConfig = FrameConfig(), harris: HarrisConfig = 
                      descriptor: OrbDescriptorConfig = OrbDescriptorConfig()) {
   require(harris.border >= OrbDescriptorConfig.sampleReach + OrbDescriptorConfig.blurRadius &&
     harris.border >= OrbDescriptorConfig.patchRadius, "the border must keep every descriptor sample inside the image")
-  /** Raw-image rows kept by the shared line buffer: as many as its most demanding reader needs. */
-  def rawRows: Int = HarrisConfig.rawRows
+  /** Raw-image rows kept by the shared line buffer: as many as its most demanding reader needs (the orientation
+    * disc, 31 rows; Harris reads the newest 9, the smoother the newest 7). */
+  def rawRows: Int = HarrisConfig.rawRows max (2 * OrbDescriptorConfig.patchRadius + 1)
   def maxWidth: Int = frame.maxWidth
 }
 

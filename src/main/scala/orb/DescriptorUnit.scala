@@ -19,9 +19,10 @@ case class OrbFeature(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) e
   * `slackRows` row starts before its oldest row is overwritten, and is dropped (counted) if it is not done by then.
   *
   * Engines: two, in parallel; engine 0 reads every row RAM through its read/write port (never on the row being
-  * written), engine 1 through the second port. An engine evaluates one test per clock: both points rotated on the
-  * fly with the bin's cos/sin (x' = round(x cos - y sin), y' = round(x sin + y cos), half to even), both read in the
-  * same clock from their two row RAMs, compared; a test whose two points share a row takes two clocks. Corners
+  * written), engine 1 through the second port. An engine evaluates two tests per clock when their four points lie
+  * in four different rows, else one: points rotated on the fly with the bin's cos/sin (x' = round(x cos - y sin),
+  * y' = round(x sin + y cos), half to even), read in the same clock from their row RAMs, compared; a test whose two
+  * points share a row takes two clocks. Corners
   * are handed to the engines in turn and their features collected in the same turn, so they leave in raster
   * order. A full output FIFO drops (and counts) a feature rather than stalling the camera. */
 class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) extends Component {
@@ -106,42 +107,58 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
     val descriptor = Reg(Bits(256 bits))
     val cs = Reg(Bits(2 * csWidth bits))
 
-    // This clock's test.
-    val p = pattern(t.resize(8))
-    val Seq(x1, y1, x2, y2) = (0 until 4).map(i => p((3 - i) * 5, 5 bits).asSInt)
+    // This clock's tests: t (a) and t + 1 (b). Both go in the same clock when their four points lie in four
+    // different rows; a test whose two points share a row goes alone, in two clocks.
     val c = cs(csWidth, csWidth bits).asSInt; val s = cs(0, csWidth bits).asSInt
-    val (rx1, ry1) = rotate(x1, y1, c, s)
-    val (rx2, ry2) = rotate(x2, y2, c, s)
     def slotOf(ry: SInt): UInt = wrap(base +^ (ry + sampleReach).asUInt.resize(slotWidth + 1))
     def colOf(rx: SInt): UInt = (corner.corner.x.intoSInt + rx).asUInt.resize(addrWidth)
-    val slot1 = slotOf(ry1); val slot2 = slotOf(ry2)
-    val sameRow = ry1 === ry2
+    case class Points(index: UInt) {
+      val p = pattern(index.resize(8))
+      val Seq(x1, y1, x2, y2) = (0 until 4).map(i => p((3 - i) * 5, 5 bits).asSInt)
+      val (rx1, ry1) = rotate(x1, y1, c, s)
+      val (rx2, ry2) = rotate(x2, y2, c, s)
+      val slot1 = slotOf(ry1); val slot2 = slotOf(ry2)
+      val col1 = colOf(rx1); val col2 = colOf(rx2)
+      val sameRow = ry1 === ry2
+    }
+    val a = Points(t)
+    val b = Points(t + 1)
     val running = busy && t =/= 256
-    val read1 = running && (!sameRow || !secondRead)
-    val read2 = running && (!sameRow || secondRead)
+    val distinct = Seq(a.slot1, a.slot2, b.slot1, b.slot2).combinations(2).map { case Seq(u, v) => u =/= v }.reduce(_ && _)
+    val dual = running && !a.sameRow && !b.sameRow && t =/= 255 && distinct
+    val readA1 = running && (!a.sameRow || !secondRead)
+    val readA2 = running && (!a.sameRow || secondRead)
     val ports = Vec(EnginePort(), rows)
     for (r <- 0 until rows) {
-      val hit1 = read1 && slot1 === r
-      val hit2 = read2 && slot2 === r
-      ports(r).enable := hit1 || hit2
-      ports(r).address := Mux(hit1, colOf(rx1), colOf(rx2))
+      val hits = Seq((readA1, a.slot1, a.col1), (readA2, a.slot2, a.col2), (dual, b.slot1, b.col1), (dual, b.slot2, b.col2))
+        .map { case (en, slot, col) => (en && slot === r, col) }
+      ports(r).enable := hits.map(_._1).orR
+      ports(r).address := hits.reverse.foldLeft(U(0, addrWidth bits)) { case (acc, (hit, col)) => Mux(hit, col, acc) }
     }
     when(running) {
-      when(sameRow && !secondRead) { secondRead := True } otherwise { secondRead := False; t := t + 1 }
+      when(a.sameRow && !secondRead) { secondRead := True }
+        .otherwise { secondRead := False; t := t + Mux(dual, U(2), U(1)) }
     }
     // One clock later: the read data, from the RAMs chosen one clock earlier.
     val readData = Vec(UInt(8 bits), rows)
-    val slot1D = RegNext(slot1); val slot2D = RegNext(slot2)
-    val firstOfPair = RegNext(running && sameRow && !secondRead) init False
-    val completes = RegNext(running && (!sameRow || secondRead)) init False
-    val pairedD = RegNext(running && sameRow) init False
+    val slotA1D = RegNext(a.slot1); val slotA2D = RegNext(a.slot2)
+    val slotB1D = RegNext(b.slot1); val slotB2D = RegNext(b.slot2)
+    val firstOfPair = RegNext(running && a.sameRow && !secondRead) init False
+    val completes = RegNext(running && (!a.sameRow || secondRead)) init False
+    val dualD = RegNext(dual) init False
+    val pairedD = RegNext(running && a.sameRow) init False
     val held = Reg(UInt(8 bits))
-    when(firstOfPair) { held := readData(slot1D) }
-    val v1 = Mux(pairedD, held, readData(slot1D))
-    val v2 = readData(slot2D)
+    when(firstOfPair) { held := readData(slotA1D) }
+    val bitA = Mux(pairedD, held, readData(slotA1D)) < readData(slotA2D)
+    val bitB = readData(slotB1D) < readData(slotB2D)
     when(busy && completes) {
-      descriptor := (v1 < v2) ## descriptor(255 downto 1)
-      bits := bits + 1
+      when(dualD) {
+        descriptor := bitB ## bitA ## descriptor(255 downto 2)
+        bits := bits + 2
+      } otherwise {
+        descriptor := bitA ## descriptor(255 downto 1)
+        bits := bits + 1
+      }
     }
     when(busy && bits === 256) { busy := False; done := True }
   }

@@ -4,26 +4,36 @@ import spinal.core._
 import spinal.lib._
 
 case class CoreStatus(c: FrameConfig) extends Bundle {
-  val frames, badFrames, badLines, corners = UInt(c.counterWidth bits)
+  val frames, badFrames, badLines, corners, features = UInt(c.counterWidth bits)
+  /** corners that got no descriptor: no orientation slot, a full queue, no engine in time, a full output FIFO, or
+    * a fault in their frame before their rows were complete */
+  val featureDrops = UInt(c.counterWidth bits)
 }
 
-/** The core: camera pixels in, Harris corners out (the descriptor and matcher stages are built on top of this).
+/** The core: camera pixels in, Harris corners and ORB features out (the keyframe store and matcher come next).
   *
-  * pixels -> FrameTracker (1 clk) -> LineBuffer (shared raw rows, 1 clk) -> HarrisDetector (`stages.latency` clk)
+  * pixels -> FrameTracker (1 clk) -> LineBuffer (shared raw rows, 1 clk) -+-> HarrisDetector -> corners
+  *                                                                        +-> OrientationUnit (corners + raw rows)
+  *                                                                        +-> Smoother -> DescriptorUnit -> features
   *
-  * Never stalls: every stage advances with valid pixels, blanking of any length (also none) passes through. */
+  * Never stalls the camera: every stage advances with valid pixels, blanking of any length (also none) passes
+  * through; only the feature output is a Stream, behind a FIFO, and what cannot wait is dropped and counted. */
 class OrbCore(val cfg: OrbConfig = OrbConfig.default) extends Component {
   val io = new Bundle {
     val pixels = slave Flow (PixelBeat())
     /** a pixel is a corner candidate when its score is above this */
     val harrisThreshold = in UInt (32 bits)
     val corners = master Flow (HarrisCorner(cfg.frame, cfg.harris))
+    val features = master Stream (OrbFeature(cfg.frame, cfg.harris, cfg.descriptor))
     val frameEnds = master Flow (FrameEndInfo())
     val status = out(CoreStatus(cfg.frame))
   }
   val tracker = new FrameTracker(cfg.frame)
   val lines = new LineBuffer(cfg.frame, cfg.rawRows)
   val harris = new HarrisDetector(cfg.frame, cfg.harris, cfg.rawRows)
+  val smoother = new Smoother(cfg.frame, cfg.rawRows)
+  val orientation = new OrientationUnit(cfg.frame, cfg.harris, cfg.descriptor, cfg.rawRows)
+  val descriptors = new DescriptorUnit(cfg.frame, cfg.harris, cfg.descriptor)
 
   tracker.io.pixels << io.pixels
   lines.io.pixels << tracker.io.tracked
@@ -31,6 +41,16 @@ class OrbCore(val cfg: OrbConfig = OrbConfig.default) extends Component {
   harris.io.geometry := tracker.io.geometry
   harris.io.threshold := io.harrisThreshold
   io.corners << harris.io.corners
+  smoother.io.columns << lines.io.columns
+  orientation.io.columns << lines.io.columns
+  orientation.io.corners << harris.io.corners
+  descriptors.io.smoothed << smoother.io.smoothed
+  descriptors.io.corners << orientation.io.oriented
+  io.features << descriptors.io.features
+  val featureCount = Reg(UInt(cfg.frame.counterWidth bits)) init 0
+  when(io.features.fire) { featureCount := featureCount + 1 }
+  io.status.features := featureCount
+  io.status.featureDrops := orientation.io.dropped + descriptors.io.dropped
   io.frameEnds << harris.io.frameEnds
   io.status.frames := tracker.io.counters.frames
   io.status.badFrames := tracker.io.counters.badFrames

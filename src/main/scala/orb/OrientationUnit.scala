@@ -123,7 +123,7 @@ class OrientationUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, c
         finishing.m10 := ((a1.resize(momentWidth) |<< 4).intoSInt - a2.resize(momentWidth).intoSInt).resize(momentWidth)
         finishing.m01 := m01
         // This beat is in row cy + R; the descriptor's 37 smoothed rows are complete when row cy + 22 starts.
-        finishing.startRow := sums.rowNow + (OrbDescriptorConfig.sampleReach + OrbDescriptorConfig.blurRadius + 1 - R)
+        finishing.startRow := sums.rowNow + (OrbDescriptorConfig.startRowOffset - R)
         finishing.frameParity := sums.parityNow
       }
     }

@@ -19,8 +19,12 @@ class OrbCoreSpec extends AnyFunSuite {
     Scoreboard.compare(name, CoreEvents.of(model), rtl.events, frames.lastOption).foreach(msg => fail(msg))
     assert(rtl.counters == model.counters, s"$name: counters")
     assert(rtl.cornerCount == model.cornerCount, s"$name: corner counter")
+    assert(rtl.featureDrops == 0, s"$name: ${rtl.featureDrops} corners got no descriptor")
+    val fd = model.features.zipAll(rtl.features, null, null).indexWhere { case (a, b) => a != b }
+    assert(fd < 0, s"$name: feature $fd: model ${model.features.lift(fd)} vs RTL ${rtl.features.lift(fd)}")
+    assert(rtl.featureCount == rtl.features.size)
     println(f"[orb] $name%-32s ${frames.size} frames ${frames.head.width}x${frames.head.height}: " +
-      s"${rtl.corners.size} corners, ${rtl.frameEnds.size} frame ends, ${rtl.cycles} clocks")
+      s"${rtl.corners.size} corners, ${rtl.features.size} features, ${rtl.frameEnds.size} frame ends, ${rtl.cycles} clocks")
     (model, rtl)
   }
 

@@ -8,17 +8,22 @@ final case class FrameEnd(ok: Boolean, keyframe: Boolean)
 
 /** Everything the core emits for a beat sequence, in emission order. */
 final case class CoreResult(corners: Seq[Corner], frameEnds: Seq[FrameEnd], counters: FrameCounters, cornerCount: Long,
+                            /** the features of the emitted corners whose descriptor rows came before any fault */
+                            features: Seq[Feature],
                             /** per emitted corner / frame end: the index of the beat that carried it */
                             cornerBeats: Seq[Int], frameEndBeats: Seq[Int])
 
 /** Bit-exact model of the whole core (`orb.OrbCore`): the frame tracker decides which beats are processed, the
   * Harris model computes the corners of each processed frame, and a corner is emitted iff the beat that completes
-  * its neighbourhood, (x + reach, y + reach), was processed (i.e. came before any fault of its frame). */
+  * its neighbourhood, (x + reach, y + reach), was processed (i.e. came before any fault of its frame). A corner
+  * gets its feature iff the first beat of row y + `startRowOffset`, where its descriptor starts, was processed too.
+  * (Features the hardware drops for lack of time are not modelled: the tests check that there are none.) */
 object CoreModel {
   def run(cfg: OrbConfig, beats: Seq[Beat], threshold: Long): CoreResult = {
     val tracker = new FrameTrackerModel(cfg.frame)
     val reach = orb.HarrisConfig.reach
     val corners = ArrayBuffer[(Int, Corner)]()
+    val features = ArrayBuffer[Feature]()
     val ends = ArrayBuffer[(Int, FrameEnd)]()
     // The processed frame being collected: geometry, pixels, beat index of each raster position, active prefix.
     var w, h, activeCount = 0
@@ -29,10 +34,13 @@ object CoreModel {
     def flush(): Unit = if (collecting) {
       collecting = false
       val img = GrayImage(w, h, pixels)
-      for (c <- HarrisModel.corners(img, cfg.harris, threshold)) {
+      val emitted = HarrisModel.corners(img, cfg.harris, threshold).filter { c =>
         val emit = (c.y + reach) * w + (c.x + reach)
         if (emit < activeCount) corners += beatIndex(emit) -> c
+        emit < activeCount
       }
+      val described = emitted.filter(c => (c.y + orb.OrbDescriptorConfig.startRowOffset) * w < activeCount)
+      features ++= OrbModel.features(img, described, cfg.descriptor)
     }
 
     for ((b, i) <- beats.zipWithIndex) {
@@ -51,7 +59,7 @@ object CoreModel {
     }
     flush()
     val sortedCorners = corners.sortBy(_._1)
-    CoreResult(sortedCorners.map(_._2).toSeq, ends.map(_._2).toSeq, tracker.stats, corners.size.toLong,
+    CoreResult(sortedCorners.map(_._2).toSeq, ends.map(_._2).toSeq, tracker.stats, corners.size.toLong, features.toSeq,
       sortedCorners.map(_._1).toSeq, ends.map(_._1).toSeq)
   }
 }

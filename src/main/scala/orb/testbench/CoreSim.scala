@@ -27,7 +27,8 @@ sealed trait CoreEvent
 final case class CornerEvent(c: Corner) extends CoreEvent
 final case class FrameEndEvent(e: FrameEnd) extends CoreEvent
 
-final case class RtlResult(events: Seq[CoreEvent], counters: FrameCounters, cornerCount: Long, cycles: Long) {
+final case class RtlResult(events: Seq[CoreEvent], counters: FrameCounters, cornerCount: Long, cycles: Long,
+                           features: Seq[Feature], featureCount: Long, featureDrops: Long) {
   def corners: Seq[Corner] = events.collect { case CornerEvent(c) => c }
   def frameEnds: Seq[FrameEnd] = events.collect { case FrameEndEvent(e) => e }
 }
@@ -65,6 +66,7 @@ object CoreSim {
   def idle(dut: OrbCore, threshold: Long): Unit = {
     idlePixels(dut.io.pixels)
     dut.io.harrisThreshold #= threshold
+    dut.io.features.ready #= true
   }
 
   /** Clock and reset for any block with a pixel port: defined inputs first, as Verilator 5 needs. */
@@ -73,6 +75,7 @@ object CoreSim {
   /** Records every corner and frame end the core emits, from now on. */
   final class Monitor(dut: OrbCore) {
     val events = ArrayBuffer[CoreEvent]()
+    val features = ArrayBuffer[Feature]()
     /** the clock (counted from the monitor's start) of each corner event */
     val cornerClocks = ArrayBuffer[Long]()
     var cycles = 0L
@@ -81,6 +84,11 @@ object CoreSim {
       if (dut.io.corners.valid.toBoolean) {
         events += CornerEvent(Corner(dut.io.corners.x.toInt, dut.io.corners.y.toInt, dut.io.corners.score.toLong))
         cornerClocks += cycles
+      }
+      val f = dut.io.features
+      if (f.valid.toBoolean && f.ready.toBoolean) {
+        val bits = f.descriptor.toBigInt
+        features += Feature(f.x.toInt, f.y.toInt, f.bin.toInt, f.score.toLong, Vector.tabulate(32)(b => ((bits >> (8 * b)) & 0xff).toInt))
       }
       if (dut.io.frameEnds.valid.toBoolean)
         events += FrameEndEvent(FrameEnd(dut.io.frameEnds.ok.toBoolean, dut.io.frameEnds.keyframe.toBoolean))
@@ -116,8 +124,9 @@ object CoreSim {
   def drive(dut: OrbCore, beats: Seq[Beat], blanking: Blanking, rng: Random, progress: Int => Unit = _ => ()): Unit =
     drivePixels(dut.io.pixels, dut.clockDomain, beats, blanking, rng, progress)
 
-  /** Clocks enough for everything in flight to leave. */
-  def drain(dut: OrbCore): Unit = dut.clockDomain.waitSampling(OrbCore.latency() + 8)
+  /** Clocks enough for everything in flight to leave: the corners' pipeline, and the descriptor engines, which
+    * may still be at work after the last pixel (a few descriptors of 256+ clocks each). */
+  def drain(dut: OrbCore): Unit = dut.clockDomain.waitSampling(OrbCore.latency() + 4000)
 
   /** Defined inputs, clock and reset, then a monitor from the first clock after reset. */
   def start(dut: OrbCore, threshold: Long): Monitor = {
@@ -131,6 +140,7 @@ object CoreSim {
     val monitor = start(dut, threshold)
     drive(dut, beats, blanking, new Random(seed))
     drain(dut)
-    RtlResult(monitor.events.toSeq, counters(dut), dut.io.status.corners.toLong, monitor.cycles)
+    RtlResult(monitor.events.toSeq, counters(dut), dut.io.status.corners.toLong, monitor.cycles, monitor.features.toSeq,
+      dut.io.status.features.toLong, dut.io.status.featureDrops.toLong)
   }
 }
