@@ -60,6 +60,10 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
     // How the last processed frame ended (a corner of the previous frame may still start in the next one).
     val lastEndOk = Reg(Bool()) init False
     when(s.valid && s.pixel.ends) { lastEndOk := s.pixel.end.ok }
+    // Corners also start in blanking (after the last pixel of a frame, say): the last pixel's state holds.
+    val lastActive = Reg(Bool()) init False
+    when(s.valid) { lastActive := s.pixel.active }
+    val activeNow = Mux(s.valid, s.pixel.active, lastActive)
     val write = s.valid && s.pixel.x >= OrbDescriptorConfig.blurRadius
     val writeAddr = (s.pixel.x - OrbDescriptorConfig.blurRadius).resize(addrWidth)
   }
@@ -178,10 +182,10 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
     val next = Reg(UInt(1 bits)) init 0
     val head = ready.io.pop
     val since = (stream.rowNow - head.startRow).asSInt // rows since the patch was complete (negative: not yet)
-    val due = stream.s.valid && head.valid && !since.msb
+    val due = head.valid && !since.msb
     val late = since.asUInt >= d.slackRows
     val sameFrame = head.frameParity === stream.parityNow
-    val dataOk = Mux(sameFrame, stream.s.pixel.active, stream.lastEndOk)
+    val dataOk = Mux(sameFrame, stream.activeNow, stream.lastEndOk)
     val engineFree = Vec(engines.map(e => !e.busy && !e.done))(next)
     head.ready := due && (engineFree || late || !dataOk)
     val start = due && engineFree && !late && dataOk
