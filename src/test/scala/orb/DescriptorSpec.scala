@@ -46,13 +46,13 @@ class DescriptorSpec extends AnyFunSuite {
 
   def show(f: Feature): String = if (f == null) "-" else s"(${f.x},${f.y}) bin ${f.bin} score ${f.score} ${f.hex}"
 
-  def check(name: String, img: GrayImage, blanking: Blanking): Unit = {
-    val expected = OrbModel.features(img, HarrisModel.corners(img, config.harris, threshold), config.descriptor)
+  def check(name: String, img: GrayImage, blanking: Blanking, thr: Long = threshold): Seq[Feature] = {
+    val expected = OrbModel.features(img, HarrisModel.corners(img, config.harris, thr), config.descriptor)
     val got = scala.collection.mutable.ArrayBuffer[Feature]()
     var drops = (0L, 0L)
     harness.doSim(name, seed.toInt) { dut =>
       CoreSim.idlePixels(dut.io.pixels)
-      dut.io.threshold #= threshold
+      dut.io.threshold #= thr
       dut.io.features.ready #= true
       CoreSim.startClock(dut.clockDomain)
       dut.clockDomain.onSamplings {
@@ -71,6 +71,7 @@ class DescriptorSpec extends AnyFunSuite {
       diffs.take(2).map { case ((a, b), i) => s"#$i model ${show(a)} RTL ${show(b)}" }.mkString("; "))
     assert(drops == (0L, 0L), s"$name: drops $drops")
     println(s"[orb] descriptors $name: ${got.size} features equal to the model, none dropped")
+    got.toSeq
   }
 
   test("features == model: boxes with gaps, a graf1 crop with camera blanking") {
@@ -81,5 +82,9 @@ class DescriptorSpec extends AnyFunSuite {
     val photos = Option(new java.io.File("data").listFiles()).toSeq.flatten.map(_.getName).filter(_.endsWith(".png")).sorted
     assert(photos.size >= 8)
     for (name <- photos) check(s"feat-$name", image(name), Blanking.none)
+  }
+  test("a 1024-px-wide photograph with over 3000 corners, no blanking: every corner gets its descriptor") {
+    val got = check("feat-aloe-3000", image("aloeL_crop1024.png"), Blanking.none, thr = threshold / 2)
+    assert(got.size >= 3000, s"${got.size} corners: lower the threshold of this test")
   }
 }

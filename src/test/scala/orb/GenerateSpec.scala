@@ -7,6 +7,7 @@ import scala.sys.process._
 /** The emitted Verilog for the Cyclone II target: lint-clean for Verilator, readable and synthesizable by Yosys
   * (Verilog-2005 front end, no SystemVerilog), and the command line's error handling. */
 class GenerateSpec extends AnyFunSuite {
+  val config: OrbConfig = OrbConfig.default
   def runCli(args: String*): (Int, String) = {
     val err = new ByteArrayOutputStream()
     val status = Generate.run(args, new PrintStream(err))
@@ -70,25 +71,29 @@ class GenerateSpec extends AnyFunSuite {
       assert(!text.contains(kw), s"'$kw' in the emitted Verilog")
   }
 
-  test("every memory is a RAM with a synchronous (registered) read, as Quartus needs for M4K blocks") {
+  test("every RAM has registered read ports, as Quartus needs for M4K blocks; constant tables are ROMs") {
     val dump = "target/generate-test/memories.txt"
     val script = s"read_verilog ${verilog.getPath}; hierarchy -top OrbCore; proc; opt -fast; memory -nomap; tee -q -o $dump dump t:$$mem_v2"
     val (status, out) = tool(Seq("yosys", "-q", "-p", script))
     assert(status == 0, out.takeRight(3000))
     val text = scala.io.Source.fromFile(dump).mkString
+    case class MemInfo(name: String, depth: Int, width: Int, writePorts: Int, readClocked: String)
     val mems = text.split("cell \\$mem_v2 ").drop(1).map { c =>
-      val name = c.takeWhile(_ != '\n').trim
       def param(p: String) = ("parameter \\\\" + p + " (\\S+)").r.findFirstMatchIn(c).map(_.group(1)).getOrElse("?")
-      (name, param("SIZE"), param("WIDTH"), param("RD_CLK_ENABLE"))
-    }
-    println(s"[orb] memories: ${mems.map { case (n, d, w, _) => s"$n ${d}x$w" }.mkString(", ")}")
-    assert(mems.map(_._1).toSet == Set("\\window_ram", "\\suppress_scores_ram"), text.take(2000))
-    assert(mems.forall(_._2 == "1024"), "depth = maxWidth")
-    assert(mems.forall(_._4.matches("\\d+'1+")), "every read port registered")
+      MemInfo(c.takeWhile(_ != '\n').trim, param("SIZE").toInt, param("WIDTH").toInt, param("WR_PORTS").toInt, param("RD_CLK_ENABLE"))
+    }.toSeq
+    val (rams, roms) = mems.partition(_.writePorts > 0)
+    println(s"[orb] RAMs: ${rams.groupBy(m => s"${m.depth}x${m.width}").map { case (k, v) => s"${v.size} x $k" }.mkString(", ")}; " +
+      s"ROMs (constant tables): ${roms.size}")
+    for (m <- rams) assert(m.readClocked.matches("\\d+'1+"), s"${m.name}: a read port is not registered")
+    assert(rams.count(_.name.startsWith("\\store_")) == config.descriptor.smoothedRows, "one RAM per smoothed row")
+    assert(rams.exists(_.name == "\\window_ram") && rams.exists(_.name == "\\suppress_scores_ram"))
+    assert(rams.filter(m => m.name == "\\window_ram" || m.name.startsWith("\\store_")).forall(_.depth == config.maxWidth), "depth = maxWidth")
   }
 
-  test("Yosys reads (Verilog-2005 parser) and synthesizes the core") {
-    val script = s"read_verilog ${verilog.getPath}; synth -top OrbCore; check -assert; stat"
+  test("Yosys reads (Verilog-2005 parser) and synthesizes the core (memories kept as RAM cells, logic to LUT4)") {
+    val script = s"read_verilog ${verilog.getPath}; hierarchy -check -top OrbCore; proc; opt -fast; memory -nomap; opt -fast; " +
+      "wreduce; alumacc; opt -fast; techmap; opt -fast; abc -lut 4; opt_clean; check -assert; stat"
     val (status, out) = tool(Seq("yosys", "-q", "-p", script, "-l", "target/generate-test/yosys.log"))
     assert(status == 0, out.takeRight(3000))
     val log = scala.io.Source.fromFile("target/generate-test/yosys.log").getLines().toSeq
