@@ -3,6 +3,7 @@ package orb
 import orb.model._
 import orb.testbench._
 import org.scalatest.funsuite.AnyFunSuite
+import spinal.core.sim._
 
 /** RTL (Verilator) against the bit-exact model: corners, scores, order, frame ends and counters. */
 class OrbCoreSpec extends AnyFunSuite {
@@ -71,6 +72,39 @@ class OrbCoreSpec extends AnyFunSuite {
     assert(rtl.corners.size > 500 && rtl.featureDrops > 100, s"a flood: ${rtl.corners.size} corners, ${rtl.featureDrops} dropped")
     val calmFeatures = OrbModel.features(calm, HarrisModel.corners(calm, config.harris, threshold), config.descriptor)
     assert(calmFeatures.nonEmpty && rtl.features.endsWith(calmFeatures), "after the flood, a normal frame gets every feature")
+  }
+  test("a consumer that pushes back half of the time: features unchanged, in order, none dropped") {
+    val img = image("graf1.png").crop(200, 150, 320, 200)
+    val beats = stream(Seq(img, img))
+    val model = CoreModel.run(config, beats, threshold)
+    var rtl: RtlResult = null
+    core.doSim("backpressure", seed.toInt) { dut =>
+      val r = rng("backpressure")
+      val monitor = CoreSim.start(dut, threshold)
+      dut.clockDomain.onSamplings { dut.io.features.ready #= r.nextBoolean() }
+      CoreSim.drive(dut, beats, Blanking.random, r)
+      CoreSim.drain(dut)
+      rtl = RtlResult(monitor.events.toSeq, CoreSim.counters(dut), dut.io.status.corners.toLong, monitor.cycles,
+        monitor.features.toSeq, dut.io.status.features.toLong, dut.io.status.featureDrops.toLong)
+    }
+    assert(model.features.nonEmpty && rtl.features == model.features && rtl.featureDrops == 0)
+    println(s"[orb] backpressure: ${rtl.features.size} features through a consumer ready half of the time")
+  }
+  test("a consumer that never reads: the camera never stalls, features beyond the FIFO are dropped and counted") {
+    val img = image("graf1.png").crop(200, 150, 320, 200)
+    val beats = stream(Seq(img, img))
+    val model = CoreModel.run(config, beats, threshold)
+    var rtl: RtlResult = null
+    core.doSim("stalled-consumer", seed.toInt) { dut =>
+      val monitor = CoreSim.start(dut, threshold)
+      dut.io.features.ready #= false
+      CoreSim.drive(dut, beats, Blanking.none, rng("stalled"))
+      CoreSim.drain(dut)
+      rtl = RtlResult(monitor.events.toSeq, CoreSim.counters(dut), dut.io.status.corners.toLong, monitor.cycles,
+        monitor.features.toSeq, dut.io.status.features.toLong, dut.io.status.featureDrops.toLong)
+    }
+    assert(rtl.events == CoreEvents.of(model), "corners and frame ends are not affected")
+    assert(rtl.featureDrops == model.features.size - 16, s"all but the 16 in the FIFO are dropped: ${rtl.featureDrops}")
   }
   test("keyframe flags reach the frame ends") {
     val img = Patterns.boxes(w, h, rng("key"))
