@@ -63,7 +63,7 @@ class AngleSearch(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) exten
   io.output.m10 := out(IN).m10
   io.output.m01 := out(IN).m01
   io.output.startRow := out(IN).startRow
-  io.output.frameParity := out(IN).frameParity
+  io.output.frameTag := out(IN).frameTag
   io.output.bin := out(unfold.BIN)
   Builder(links)
 }

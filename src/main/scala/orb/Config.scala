@@ -138,8 +138,9 @@ object OrbDescriptorConfig {
 /** The whole core. Later stages (descriptor, store, matcher) add their blocks here. */
 case class OrbConfig(frame: FrameConfig = FrameConfig(), harris: HarrisConfig = HarrisConfig(),
                      descriptor: OrbDescriptorConfig = OrbDescriptorConfig()) {
-  require(harris.border >= OrbDescriptorConfig.sampleReach + OrbDescriptorConfig.blurRadius &&
-    harris.border >= OrbDescriptorConfig.patchRadius, "the border must keep every descriptor sample inside the image")
+  // Every sample (18 px + 3 px of blur) inside the image, and row cy + 22, where a descriptor starts, in the frame.
+  require(harris.border >= OrbDescriptorConfig.startRowOffset && harris.border >= OrbDescriptorConfig.patchRadius,
+    s"the border must be at least ${OrbDescriptorConfig.startRowOffset}: a corner's descriptor starts at row y + 22")
   /** Raw-image rows kept by the shared line buffer: as many as its most demanding reader needs (the orientation
     * disc, 31 rows; Harris reads the newest 9, the smoother the newest 7). */
   def rawRows: Int = HarrisConfig.rawRows max (2 * OrbDescriptorConfig.patchRadius + 1)

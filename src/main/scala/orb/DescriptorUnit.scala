@@ -53,17 +53,18 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
     val slotNow = Mux(rowStart, wrap(slot +^ 1), slot)
     val rowCount = Reg(UInt(OrientationUnit.rowCountWidth bits)) init 0
     val rowNow = Mux(rowStart, rowCount + 1, rowCount)
-    val parity = Reg(Bool()) init False
-    val parityNow = parity ^ frameStart
+    val frame = Reg(UInt(OrientationUnit.frameTagWidth bits)) init 0
+    val frameNow = Mux(frameStart, frame + 1, frame)
     when(rowStart) { slot := slotNow; rowCount := rowNow }
-    when(frameStart) { parity := !parity }
-    // How the last processed frame ended (a corner of the previous frame may still start in the next one).
-    val lastEndOk = Reg(Bool()) init False
-    when(s.valid && s.pixel.ends) { lastEndOk := s.pixel.end.ok }
-    // Corners also start in blanking (after the last pixel of a frame, say): the last pixel's state holds.
-    val lastActive = Reg(Bool()) init False
-    when(s.valid) { lastActive := s.pixel.active }
-    val activeNow = Mux(s.valid, s.pixel.active, lastActive)
+    when(frameStart) { frame := frameNow }
+    // For the last rows: was the first pixel of the row processed, and in which frame. A corner's rows are good iff
+    // the first pixel of its row cy + 22 was processed in its own frame (no fault before it) - the model's rule.
+    case class RowInfo() extends Bundle { val active = Bool(); val frame = UInt(OrientationUnit.frameTagWidth bits) }
+    val history = Vec.fill(d.slackRows)(Reg(RowInfo()))
+    history.foreach(_.active.init(False))
+    val thisRow = RowInfo(); thisRow.active := s.pixel.active; thisRow.frame := frameNow
+    val historyNow = Mux(rowStart, Vec(thisRow +: history.init), history)
+    when(rowStart) { history := historyNow }
     val write = s.valid && s.pixel.x >= OrbDescriptorConfig.blurRadius
     val writeAddr = (s.pixel.x - OrbDescriptorConfig.blurRadius).resize(addrWidth)
   }
@@ -114,7 +115,7 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
     // This clock's tests: t (a) and t + 1 (b). Both go in the same clock when their four points lie in four
     // different rows; a test whose two points share a row goes alone, in two clocks.
     val c = cs(csWidth, csWidth bits).asSInt; val s = cs(0, csWidth bits).asSInt
-    def slotOf(ry: SInt): UInt = wrap(base +^ (ry + sampleReach).asUInt.resize(slotWidth + 1))
+    def slotOf(ry: SInt): UInt = wrap(base +^ (ry.resize(coordWidth + 1) + sampleReach).asUInt.resize(slotWidth + 1))
     def colOf(rx: SInt): UInt = (corner.corner.x.intoSInt + rx).asUInt.resize(addrWidth)
     case class Points(index: UInt) {
       val p = pattern(index.resize(8))
@@ -184,8 +185,8 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
     val since = (stream.rowNow - head.startRow).asSInt // rows since the patch was complete (negative: not yet)
     val due = head.valid && !since.msb
     val late = since.asUInt >= d.slackRows
-    val sameFrame = head.frameParity === stream.parityNow
-    val dataOk = Mux(sameFrame, stream.activeNow, stream.lastEndOk)
+    val row = stream.historyNow(since.asUInt.resize(log2Up(d.slackRows max 2)))
+    val dataOk = row.active && row.frame === head.frameTag
     val engineFree = Vec(engines.map(e => !e.busy && !e.done))(next)
     head.ready := due && (engineFree || late || !dataOk)
     val start = due && engineFree && !late && dataOk
@@ -204,7 +205,7 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
   // A row start overwrites the oldest slot: an engine whose slack runs out gives up its corner.
   for (e <- engines) when(stream.rowStart && e.busy) {
     e.rowsLeft := e.rowsLeft - 1
-    when(e.rowsLeft === 1) { e.busy := False; e.done := True; e.drop := True }
+    when(e.rowsLeft === 1 && e.bits =/= 256) { e.busy := False; e.done := True; e.drop := True }
   }
 
   // Collecting in the same turn keeps raster order.

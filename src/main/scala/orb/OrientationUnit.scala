@@ -12,8 +12,8 @@ case class OrientedCorner(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfi
   val bin = UInt(d.binWidth bits)
   /** rows are counted from reset, across frames: the row whose start means the corner's smoothed patch is complete */
   val startRow = UInt(OrientationUnit.rowCountWidth bits)
-  /** parity of the corner's frame (frames counted from reset) */
-  val frameParity = Bool()
+  /** the corner's frame, counted from reset (wrapping) */
+  val frameTag = UInt(OrientationUnit.frameTagWidth bits)
 }
 
 /** Orientation by intensity centroid (OpenCV's IC_Angle) without storing any patch.
@@ -62,11 +62,11 @@ class OrientationUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, c
     val frameStart = valid && x === 0 && y === 0
     // Rows and frames counted since reset, the same way the descriptor unit counts them on its stream.
     val rowCount = Reg(UInt(rowCountWidth bits)) init 0
-    val parity = Reg(Bool()) init False
+    val frame = Reg(UInt(frameTagWidth bits)) init 0
     val rowNow = Mux(valid && x === 0, rowCount + 1, rowCount)
-    val parityNow = parity ^ frameStart
+    val frameNow = Mux(frameStart, frame + 1, frame)
     when(valid && x === 0) { rowCount := rowCount + 1 }
-    when(frameStart) { parity := !parity }
+    when(frameStart) { frame := frameNow }
     def index(u: SInt): UInt = {
       val a = u.abs
       val sel = UInt(log2Up(heights.size) bits)
@@ -95,8 +95,9 @@ class OrientationUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, c
   val staleDrop = head.fire && !startHere // its start column went by (a frame ended early, or the queue was late)
   // A new frame: what is still queued or accumulating belongs to a frame that ended before its rows came.
   queue.io.flush := sums.frameStart
+  // (a corner pushed on that very clock is lost with the flush, so it counts too)
   val flushDrops = Mux(sums.frameStart, queue.io.occupancy.resize(f.counterWidth) +
-    CountOne(slots.map(_.busy)).resize(f.counterWidth), U(0, f.counterWidth bits))
+    CountOne(slots.map(_.busy)).resize(f.counterWidth) + U(io.corners.valid).resize(f.counterWidth), U(0, f.counterWidth bits))
 
   val finishing = Flow(OrientedCorner(f, h, d))
   finishing.valid := False
@@ -124,7 +125,7 @@ class OrientationUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, c
         finishing.m01 := m01
         // This beat is in row cy + R; the descriptor's 37 smoothed rows are complete when row cy + 22 starts.
         finishing.startRow := sums.rowNow + (OrbDescriptorConfig.startRowOffset - R)
-        finishing.frameParity := sums.parityNow
+        finishing.frameTag := sums.frameNow
       }
     }
   }
@@ -149,4 +150,6 @@ object OrientationUnit {
   val momentWidth: Int = 24
   /** rows counted since reset, wrapping: only differences of a few rows are ever used */
   val rowCountWidth: Int = 12
+  /** frames counted since reset, wrapping: tells a corner's frame from the next few */
+  val frameTagWidth: Int = 4
 }

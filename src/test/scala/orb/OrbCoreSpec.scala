@@ -33,10 +33,10 @@ class OrbCoreSpec extends AnyFunSuite {
         assert(after.nonEmpty, s"$name: RTL feature $f is not one of the model's (or out of order)")
         after.tail
       }
-      assert(remaining != null)
       assert(rtl.featureDrops == model.features.size - rtl.features.size, s"$name: every missing feature is counted")
     }
     assert(rtl.featureCount == rtl.features.size)
+    assert(rtl.features.size + rtl.featureDrops == rtl.corners.size, s"$name: every corner is a feature or a counted drop")
     println(f"[orb] $name%-32s ${frames.size} frames ${frames.head.width}x${frames.head.height}: " +
       s"${rtl.corners.size} corners, ${rtl.features.size} features, ${rtl.frameEnds.size} frame ends, ${rtl.cycles} clocks")
     (model, rtl)
