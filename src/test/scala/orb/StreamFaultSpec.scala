@@ -82,6 +82,26 @@ class StreamFaultSpec extends AnyFunSuite {
   }
   test("a start of frame in the middle of a line") { faultCase("sof-mid-frame", cut(50, 17), badLines = 1) }
 
+  test("a fault while many corners still wait for a descriptor engine: nothing from after the fault, drops counted") {
+    val dense = Patterns.checkerboard(240, 120, 6)
+    val f = Beat.frame(dense).toVector
+    val cut = 70 * 240 + 100 // a short line in row 70: corners of rows 40..48 are queued or in the engines then
+    val faulty = f.take(cut) ++ Seq(f(cut).copy(eol = true)) ++ f.drop(71 * 240)
+    val beats = f ++ f ++ faulty ++ f ++ f
+    val model = CoreModel.run(config, beats, threshold)
+    var rtl: RtlResult = null
+    core.doSim("fault-while-waiting", seed.toInt) { dut => rtl = CoreSim.run(dut, beats, threshold, Blanking.none, seed) }
+    Scoreboard.compare("fault-while-waiting", CoreEvents.of(model), rtl.events, Some(dense)).foreach(msg => fail(msg))
+    val left = rtl.features.foldLeft(model.features.toList) { (rest, feat) =>
+      val after = rest.dropWhile(_ != feat)
+      assert(after.nonEmpty, s"RTL feature $feat is not one of the model's (or out of order)")
+      after.tail
+    }
+    assert(rtl.features.size + rtl.featureDrops == rtl.corners.size, "every corner is a feature or a counted drop")
+    assert(rtl.featureDrops > 0 && rtl.counters.badFrames == 1)
+    println(s"[orb] fault-while-waiting: ${rtl.corners.size} corners, ${rtl.features.size} features, ${rtl.featureDrops} counted drops")
+  }
+
   test("the very first frame, too wide for the line buffer, is never processed") {
     val wide = Beat.frame(GrayImage.tabulate(config.maxWidth + 3, 30)((x, y) => (x * 7 + y * 13) % 256))
     val (_, rtl) = runBoth("first-too-wide", Seq(wide, good, good))
