@@ -135,9 +135,19 @@ object OrbDescriptorConfig {
   def vmax(u: Int): Int = umax.lastIndexWhere(_ >= u.abs)
 }
 
+/** Keyframe store and Hamming matcher.
+  *
+  * @param storeCapacity keyframe features kept: the first `storeCapacity` of the keyframe in raster order (the
+  *                      rest are counted); 512 x 278 bits is 36 M4K
+  * @param ratioFracBits fraction bits of the ratio-test factor r (best < r * second), a run-time value
+  */
+case class MatcherConfig(storeCapacity: Int = 512, ratioFracBits: Int = 8) {
+  require(storeCapacity >= 1 && ratioFracBits >= 1 && ratioFracBits <= 16)
+}
+
 /** The whole core. Later stages (descriptor, store, matcher) add their blocks here. */
 case class OrbConfig(frame: FrameConfig = FrameConfig(), harris: HarrisConfig = HarrisConfig(),
-                     descriptor: OrbDescriptorConfig = OrbDescriptorConfig()) {
+                     descriptor: OrbDescriptorConfig = OrbDescriptorConfig(), matcher: MatcherConfig = MatcherConfig()) {
   // Every sample (18 px + 3 px of blur) inside the image, and row cy + 22, where a descriptor starts, in the frame.
   require(harris.border >= OrbDescriptorConfig.startRowOffset && harris.border >= OrbDescriptorConfig.patchRadius,
     s"the border must be at least ${OrbDescriptorConfig.startRowOffset}: a corner's descriptor starts at row y + 22")

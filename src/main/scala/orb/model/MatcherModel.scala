@@ -1,0 +1,58 @@
+package orb.model
+
+import orb.MatcherConfig
+
+/** A correspondence as the core will stream it: live (x, y) -> keyframe (x, y), Hamming distance. */
+final case class Correspondence(liveX: Int, liveY: Int, keyX: Int, keyY: Int, distance: Int)
+
+/** Run-time matching parameters.
+  * @param hammingThreshold accept a best match at this distance or less (0..256)
+  * @param ratio            ratio test factor scaled 2^ratioFracBits: accept when best * 2^F < ratio * second;
+  *                         None disables the test
+  * @param crossCheck       keep only mutual nearest neighbours (OpenCV's BFMatcher crossCheck = true) */
+final case class MatchParams(hammingThreshold: Int = 64, ratio: Option[Int] = None, crossCheck: Boolean = false)
+
+/** Model of the keyframe store and the brute-force Hamming matcher (the specification the hardware will follow).
+  *
+  *  - Store: a keyframe's features in the order they arrive (raster order); the first `storeCapacity` are kept,
+  *    the others counted as overflow.
+  *  - For each live feature: the best store entry (smallest distance, the first in store order on ties) and the
+  *    second-best distance (the smallest over every other entry, so equal to the best on a tie; 257 when the store
+  *    has one entry). Accepted when best <= threshold and, if enabled, best * 2^F < ratio * second.
+  *  - Cross-check: a store entry's best live feature over the whole frame (smallest distance, the first live
+  *    feature on ties); an accepted match i -> j is kept iff that is i. So cross-checked correspondences are only
+  *    known at the end of the live frame; they come in live-feature order. */
+object MatcherModel {
+  final case class Store(features: IndexedSeq[Feature], overflow: Int)
+
+  def store(keyframe: Seq[Feature], cfg: MatcherConfig): Store =
+    Store(keyframe.take(cfg.storeCapacity).toIndexedSeq, (keyframe.size - cfg.storeCapacity) max 0)
+
+  def distance(a: Feature, b: Feature): Int = a.descriptor.zip(b.descriptor).map { case (p, q) => Integer.bitCount(p ^ q) }.sum
+
+  /** (best index, best distance, second distance) of a live feature against the store; None for an empty store. */
+  def nearest(live: Feature, s: Store): Option[(Int, Int, Int)] =
+    if (s.features.isEmpty) None
+    else {
+      val d = s.features.map(distance(live, _))
+      val best = d.indices.minBy(i => (d(i), i))
+      val second = d.indices.filter(_ != best).map(d).minOption.getOrElse(257)
+      Some((best, d(best), second))
+    }
+
+  def accepted(best: Int, second: Int, p: MatchParams, cfg: MatcherConfig): Boolean =
+    best <= p.hammingThreshold && p.ratio.forall(r => best.toLong * (1L << cfg.ratioFracBits) < r.toLong * second)
+
+  def matchFrame(s: Store, live: Seq[Feature], p: MatchParams, cfg: MatcherConfig): Seq[Correspondence] = {
+    val candidates = live.zipWithIndex.flatMap { case (q, i) =>
+      nearest(q, s).filter { case (_, b, sec) => accepted(b, sec, p, cfg) }.map { case (j, b, _) => (i, j, b) }
+    }
+    val kept = if (!p.crossCheck) candidates else {
+      val bestLive = s.features.indices.map { j =>
+        if (live.isEmpty) -1 else live.indices.minBy(i => (distance(live(i), s.features(j)), i))
+      }
+      candidates.filter { case (i, j, _) => bestLive(j) == i }
+    }
+    kept.map { case (i, j, b) => Correspondence(live(i).x, live(i).y, s.features(j).x, s.features(j).y, b) }
+  }
+}

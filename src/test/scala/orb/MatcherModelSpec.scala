@@ -1,0 +1,35 @@
+package orb
+
+import orb.model._
+import org.scalatest.funsuite.AnyFunSuite
+
+/** The matcher model's semantics on hand-made descriptors. */
+class MatcherModelSpec extends AnyFunSuite {
+  val cfg: MatcherConfig = MatcherConfig(storeCapacity = 3)
+  /** A feature whose descriptor has its first `ones` bits set. */
+  def feat(x: Int, ones: Int): Feature =
+    Feature(x, 0, 0, 0, Vector.tabulate(32)(b => ((0 until 8).filter(i => b * 8 + i < ones).map(1 << _)).sum))
+
+  test("store keeps the first N of the keyframe and counts the rest") {
+    val s = MatcherModel.store(Seq(feat(1, 0), feat(2, 10), feat(3, 20), feat(4, 30)), cfg)
+    assert(s.features.map(_.x) == Seq(1, 2, 3) && s.overflow == 1)
+  }
+  test("best, first on ties; second equals best on a tie; threshold and ratio") {
+    val s = MatcherModel.store(Seq(feat(1, 10), feat(2, 10), feat(3, 40)), cfg)
+    assert(MatcherModel.nearest(feat(9, 12), s).contains((0, 2, 2)))
+    assert(MatcherModel.nearest(feat(9, 38), s).contains((2, 2, 28)))
+    val p = MatchParams(hammingThreshold = 5, ratio = Some(128)) // r = 0.5
+    assert(MatcherModel.matchFrame(s, Seq(feat(9, 12)), p, cfg).isEmpty, "a tie fails the ratio test")
+    assert(MatcherModel.matchFrame(s, Seq(feat(9, 38)), p, cfg) == Seq(Correspondence(9, 0, 3, 0, 2)))
+    assert(MatcherModel.matchFrame(s, Seq(feat(9, 38)), p.copy(hammingThreshold = 1), cfg).isEmpty)
+    assert(MatcherModel.matchFrame(s, Seq(feat(9, 38)), p.copy(ratio = Some(18)), cfg).isEmpty, "2 * 256 < 18 * 28 fails")
+  }
+  test("cross-check keeps mutual nearest neighbours only") {
+    val s = MatcherModel.store(Seq(feat(1, 10), feat(2, 100)), cfg)
+    val live = Seq(feat(7, 11), feat(8, 12), feat(9, 99))
+    val p = MatchParams(hammingThreshold = 256, crossCheck = true)
+    // live 8 prefers entry 1 but entry 1 prefers live 7
+    assert(MatcherModel.matchFrame(s, live, p, cfg) == Seq(Correspondence(7, 0, 1, 0, 1), Correspondence(9, 0, 2, 0, 1)))
+    assert(MatcherModel.matchFrame(s, live, p.copy(crossCheck = false), cfg).size == 3)
+  }
+}
