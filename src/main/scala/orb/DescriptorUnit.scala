@@ -4,12 +4,15 @@ import spinal.core._
 import spinal.lib._
 import Arith._
 
-/** A finished ORB feature. `descriptor(i)` is test i: byte i/8, bit i%8 of OpenCV's descriptor. */
+/** A finished ORB feature. `descriptor(i)` is test i: byte i/8, bit i%8 of OpenCV's descriptor. With `frameEnd`
+  * set, the item is no feature but the end of a processed frame, after all of that frame's features. */
 case class OrbFeature(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) extends Bundle {
   val x, y = UInt(f.coordWidth bits)
   val bin = UInt(d.binWidth bits)
   val score = UInt(h.scoreWidth bits)
   val descriptor = Bits(256 bits)
+  val frameEnd = Bool()
+  val end = FrameEndInfo()
 }
 
 /** Rotated BRIEF, as `orb.model.OrbModel.descriptor`, on a store of smoothed rows.
@@ -178,19 +181,23 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
     engines(1).readData(r) := ram.readSync(e1.address, e1.enable)
   }
 
+  val output = StreamFifo(OrbFeature(f, h, d), 16)
+
   // Handing corners to the engines in turn.
   val dispatch = new Area {
     val next = Reg(UInt(1 bits)) init 0
     val head = ready.io.pop
     val since = (stream.rowNow - head.startRow).asSInt // rows since the patch was complete (negative: not yet)
-    val due = head.valid && !since.msb
+    val due = head.valid && !head.frameEnd && !since.msb
     val late = since.asUInt >= d.slackRows
     val row = stream.historyNow(since.asUInt.resize(log2Up(d.slackRows max 2)))
     val dataOk = row.active && row.frame === head.frameTag
     val engineFree = Vec(engines.map(e => !e.busy && !e.done))(next)
-    head.ready := due && (engineFree || late || !dataOk)
+    // A frame end leaves when every corner before it has: both engines idle and collected.
+    val marker = head.valid && head.frameEnd && engines.map(e => !e.busy && !e.done).andR
+    head.ready := (due && (engineFree || late || !dataOk)) || (marker && output.io.push.ready)
     val start = due && engineFree && !late && dataOk
-    val refused = head.fire && !start
+    val refused = head.fire && !start && !head.frameEnd
     for ((e, i) <- engines.zipWithIndex) when(start && next === i) {
       e.busy := True; e.drop := False
       e.corner := head.payload
@@ -211,24 +218,25 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
   // Collecting in the same turn keeps raster order.
   val collect = new Area {
     val next = Reg(UInt(1 bits)) init 0
-    val out = StreamFifo(OrbFeature(f, h, d), 16)
     val e = Vec(engines.map(_.done))(next)
     val drop = Vec(engines.map(_.drop))(next)
     val sel = engines.map(_.corner)
     val corner = Vec(sel)(next)
-    out.io.push.valid := e && !drop
-    out.io.push.x := corner.corner.x
-    out.io.push.y := corner.corner.y
-    out.io.push.bin := corner.bin
-    out.io.push.score := corner.corner.score
-    out.io.push.descriptor := Vec(engines.map(_.descriptor))(next)
-    val outputDrop = e && !drop && !out.io.push.ready
+    output.io.push.valid := (e && !drop) || dispatch.marker
+    output.io.push.frameEnd := dispatch.marker
+    output.io.push.end := dispatch.head.end
+    output.io.push.x := corner.corner.x
+    output.io.push.y := corner.corner.y
+    output.io.push.bin := corner.bin
+    output.io.push.score := corner.corner.score
+    output.io.push.descriptor := Vec(engines.map(_.descriptor))(next)
+    val outputDrop = e && !drop && !output.io.push.ready
     val engineDrop = e && drop
     when(e) {
       next := next + 1
       for ((en, i) <- engines.zipWithIndex) when(next === i) { en.done := False }
     }
-    io.features << out.io.pop
+    io.features << output.io.pop
   }
 
   val drops = Reg(UInt(f.counterWidth bits)) init 0

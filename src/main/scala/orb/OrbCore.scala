@@ -48,7 +48,7 @@ class OrbCore(val cfg: OrbConfig = OrbConfig.default) extends Component {
   descriptors.io.corners << orientation.io.oriented
   io.features << descriptors.io.features
   val featureCount = Reg(UInt(cfg.frame.counterWidth bits)) init 0
-  when(io.features.fire) { featureCount := featureCount + 1 }
+  when(io.features.fire && !io.features.frameEnd) { featureCount := featureCount + 1 }
   io.status.features := featureCount
   io.status.featureDrops := orientation.io.dropped + descriptors.io.dropped
   io.frameEnds << harris.io.frameEnds

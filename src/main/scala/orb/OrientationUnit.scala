@@ -14,6 +14,9 @@ case class OrientedCorner(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfi
   val startRow = UInt(OrientationUnit.rowCountWidth bits)
   /** the corner's frame, counted from reset (wrapping) */
   val frameTag = UInt(OrientationUnit.frameTagWidth bits)
+  /** not a corner: the end of a processed frame, after all of its corners (`end` says how it ended) */
+  val frameEnd = Bool()
+  val end = FrameEndInfo()
 }
 
 /** Orientation by intensity centroid (OpenCV's IC_Angle) without storing any patch.
@@ -59,6 +62,8 @@ class OrientationUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, c
     val x = RegNext(io.columns.pixel.x)
     val y = RegNext(io.columns.pixel.y)
     val active = RegNext(io.columns.pixel.active)
+    val ends = RegNext(io.columns.pixel.ends)
+    val end = RegNext(io.columns.pixel.end)
     val frameStart = valid && x === 0 && y === 0
     // Rows and frames counted since reset, the same way the descriptor unit counts them on its stream.
     val rowCount = Reg(UInt(rowCountWidth bits)) init 0
@@ -102,6 +107,7 @@ class OrientationUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, c
   val finishing = Flow(OrientedCorner(f, h, d))
   finishing.valid := False
   finishing.payload.assignDontCare()
+  finishing.frameEnd := False
   for ((slot, i) <- slots.zipWithIndex) {
     val starting = startOk && chosen(i)
     val active = slot.busy || starting
@@ -128,6 +134,13 @@ class OrientationUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, c
         finishing.frameTag := sums.frameNow
       }
     }
+  }
+  // A frame's end follows its corners: no corner of a good frame finishes on its last pixel (the last corners
+  // finish 7 rows earlier), and on a fault no corner finishes (it would be dropped).
+  when(sums.valid && sums.ends) {
+    finishing.valid := True
+    finishing.frameEnd := True
+    finishing.end := sums.end
   }
   // At most one slot finishes per pixel: finishing corners are at distinct x of one row.
   val bins = new AngleSearch(f, h, d)

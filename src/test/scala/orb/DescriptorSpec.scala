@@ -57,7 +57,7 @@ class DescriptorSpec extends AnyFunSuite {
       CoreSim.startClock(dut.clockDomain)
       dut.clockDomain.onSamplings {
         val o = dut.io.features
-        if (o.valid.toBoolean && o.ready.toBoolean) {
+        if (o.valid.toBoolean && o.ready.toBoolean && !o.frameEnd.toBoolean) {
           val bits = o.descriptor.toBigInt
           got += Feature(o.x.toInt, o.y.toInt, o.bin.toInt, o.score.toLong, Vector.tabulate(32)(b => ((bits >> (8 * b)) & 0xff).toInt))
         }

@@ -25,8 +25,8 @@ class OrbCoreSpec extends AnyFunSuite {
     assert(rtl.cornerCount == model.cornerCount, s"$name: corner counter")
     if (allFeatures) {
       assert(rtl.featureDrops == 0, s"$name: ${rtl.featureDrops} corners got no descriptor")
-      val fd = model.features.zipAll(rtl.features, null, null).indexWhere { case (a, b) => a != b }
-      assert(fd < 0, s"$name: feature $fd: model ${model.features.lift(fd)} vs RTL ${rtl.features.lift(fd)}")
+      val fd = model.featureStream.zipAll(rtl.featureStream, null, null).indexWhere { case (a, b) => a != b }
+      assert(fd < 0, s"$name: feature output item $fd: model ${model.featureStream.lift(fd)} vs RTL ${rtl.featureStream.lift(fd)}")
     } else {
       val remaining = rtl.features.foldLeft(model.features.toList) { (rest, f) =>
         val after = rest.dropWhile(_ != f)
@@ -34,6 +34,7 @@ class OrbCoreSpec extends AnyFunSuite {
         after.tail
       }
       assert(rtl.featureDrops == model.features.size - rtl.features.size, s"$name: every missing feature is counted")
+      assert(rtl.featureStream.collect { case Left(e) => e } == model.frameEnds, s"$name: one frame end per frame in the feature output")
     }
     assert(rtl.featureCount == rtl.features.size)
     assert(rtl.features.size + rtl.featureDrops == rtl.corners.size, s"$name: every corner is a feature or a counted drop")
@@ -85,9 +86,9 @@ class OrbCoreSpec extends AnyFunSuite {
       CoreSim.drive(dut, beats, Blanking.random, r)
       CoreSim.drain(dut)
       rtl = RtlResult(monitor.events.toSeq, CoreSim.counters(dut), dut.io.status.corners.toLong, monitor.cycles,
-        monitor.features.toSeq, dut.io.status.features.toLong, dut.io.status.featureDrops.toLong)
+        monitor.featureStream.toSeq, dut.io.status.features.toLong, dut.io.status.featureDrops.toLong)
     }
-    assert(model.features.nonEmpty && rtl.features == model.features && rtl.featureDrops == 0)
+    assert(model.features.nonEmpty && rtl.featureStream == model.featureStream && rtl.featureDrops == 0)
     println(s"[orb] backpressure: ${rtl.features.size} features through a consumer ready half of the time")
   }
   test("a consumer that never reads: the camera never stalls, features beyond the FIFO are dropped and counted") {
@@ -101,7 +102,7 @@ class OrbCoreSpec extends AnyFunSuite {
       CoreSim.drive(dut, beats, Blanking.none, rng("stalled"))
       CoreSim.drain(dut)
       rtl = RtlResult(monitor.events.toSeq, CoreSim.counters(dut), dut.io.status.corners.toLong, monitor.cycles,
-        monitor.features.toSeq, dut.io.status.features.toLong, dut.io.status.featureDrops.toLong)
+        monitor.featureStream.toSeq, dut.io.status.features.toLong, dut.io.status.featureDrops.toLong)
     }
     assert(rtl.events == CoreEvents.of(model), "corners and frame ends are not affected")
     assert(rtl.featureDrops == model.features.size - 16, s"all but the 16 in the FIFO are dropped: ${rtl.featureDrops}")

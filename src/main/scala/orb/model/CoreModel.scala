@@ -10,6 +10,8 @@ final case class FrameEnd(ok: Boolean, keyframe: Boolean)
 final case class CoreResult(corners: Seq[Corner], frameEnds: Seq[FrameEnd], counters: FrameCounters, cornerCount: Long,
                             /** the features of the emitted corners whose descriptor rows came before any fault */
                             features: Seq[Feature],
+                            /** the feature output: each processed frame's features, then its end */
+                            featureStream: Seq[Either[FrameEnd, Feature]],
                             /** per emitted corner / frame end: the index of the beat that carried it */
                             cornerBeats: Seq[Int], frameEndBeats: Seq[Int])
 
@@ -24,6 +26,8 @@ object CoreModel {
     val reach = orb.HarrisConfig.reach
     val corners = ArrayBuffer[(Int, Corner)]()
     val features = ArrayBuffer[Feature]()
+    val featureStream = ArrayBuffer[Either[FrameEnd, Feature]]()
+    var pendingEnd: Option[FrameEnd] = None
     val ends = ArrayBuffer[(Int, FrameEnd)]()
     // The processed frame being collected: geometry, pixels, beat index of each raster position, active prefix.
     var w, h, activeCount = 0
@@ -40,7 +44,10 @@ object CoreModel {
         emit < activeCount
       }
       val described = emitted.filter(c => (c.y + orb.OrbDescriptorConfig.startRowOffset) * w < activeCount)
-      features ++= OrbModel.features(img, described, cfg.descriptor)
+      val fs = OrbModel.features(img, described, cfg.descriptor)
+      features ++= fs
+      featureStream ++= fs.map(Right(_))
+      featureStream ++= pendingEnd.map(Left(_)); pendingEnd = None
     }
 
     for ((b, i) <- beats.zipWithIndex) {
@@ -54,12 +61,18 @@ object CoreModel {
         if (t.active) {
           pixels(t.y * w + t.x) = t.luma; beatIndex(t.y * w + t.x) = i; activeCount += 1
         }
-        if (t.frameEnd) ends += i -> FrameEnd(t.frameOk, t.frameKey)
+        if (t.frameEnd) {
+          val e = FrameEnd(t.frameOk, t.frameKey)
+          ends += i -> e
+          // On a start of frame the end belongs to the frame just flushed; otherwise to the current one.
+          if (b.sof) featureStream += Left(e) else pendingEnd = Some(e)
+        }
       }
     }
     flush()
     val sortedCorners = corners.sortBy(_._1)
     CoreResult(sortedCorners.map(_._2).toSeq, ends.map(_._2).toSeq, tracker.stats, corners.size.toLong, features.toSeq,
+      featureStream.toSeq,
       sortedCorners.map(_._1).toSeq, ends.map(_._1).toSeq)
   }
 }

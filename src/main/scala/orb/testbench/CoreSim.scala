@@ -28,7 +28,8 @@ final case class CornerEvent(c: Corner) extends CoreEvent
 final case class FrameEndEvent(e: FrameEnd) extends CoreEvent
 
 final case class RtlResult(events: Seq[CoreEvent], counters: FrameCounters, cornerCount: Long, cycles: Long,
-                           features: Seq[Feature], featureCount: Long, featureDrops: Long) {
+                           featureStream: Seq[Either[FrameEnd, Feature]], featureCount: Long, featureDrops: Long) {
+  def features: Seq[Feature] = featureStream.collect { case Right(f) => f }
   def corners: Seq[Corner] = events.collect { case CornerEvent(c) => c }
   def frameEnds: Seq[FrameEnd] = events.collect { case FrameEndEvent(e) => e }
 }
@@ -75,7 +76,8 @@ object CoreSim {
   /** Records every corner and frame end the core emits, from now on. */
   final class Monitor(dut: OrbCore) {
     val events = ArrayBuffer[CoreEvent]()
-    val features = ArrayBuffer[Feature]()
+    val featureStream = ArrayBuffer[Either[FrameEnd, Feature]]()
+    def features: Seq[Feature] = featureStream.collect { case Right(f) => f }.toSeq
     /** the clock (counted from the monitor's start) of each corner event */
     val cornerClocks = ArrayBuffer[Long]()
     var cycles = 0L
@@ -87,8 +89,11 @@ object CoreSim {
       }
       val f = dut.io.features
       if (f.valid.toBoolean && f.ready.toBoolean) {
-        val bits = f.descriptor.toBigInt
-        features += Feature(f.x.toInt, f.y.toInt, f.bin.toInt, f.score.toLong, Vector.tabulate(32)(b => ((bits >> (8 * b)) & 0xff).toInt))
+        if (f.frameEnd.toBoolean) featureStream += Left(FrameEnd(f.end.ok.toBoolean, f.end.keyframe.toBoolean))
+        else {
+          val bits = f.descriptor.toBigInt
+          featureStream += Right(Feature(f.x.toInt, f.y.toInt, f.bin.toInt, f.score.toLong, Vector.tabulate(32)(b => ((bits >> (8 * b)) & 0xff).toInt)))
+        }
       }
       if (dut.io.frameEnds.valid.toBoolean)
         events += FrameEndEvent(FrameEnd(dut.io.frameEnds.ok.toBoolean, dut.io.frameEnds.keyframe.toBoolean))
@@ -140,7 +145,7 @@ object CoreSim {
     val monitor = start(dut, threshold)
     drive(dut, beats, blanking, new Random(seed))
     drain(dut)
-    RtlResult(monitor.events.toSeq, counters(dut), dut.io.status.corners.toLong, monitor.cycles, monitor.features.toSeq,
+    RtlResult(monitor.events.toSeq, counters(dut), dut.io.status.corners.toLong, monitor.cycles, monitor.featureStream.toSeq,
       dut.io.status.features.toLong, dut.io.status.featureDrops.toLong)
   }
 }
