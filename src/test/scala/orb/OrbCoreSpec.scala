@@ -85,8 +85,7 @@ class OrbCoreSpec extends AnyFunSuite {
       dut.clockDomain.onSamplings { dut.io.features.ready #= r.nextBoolean() }
       CoreSim.drive(dut, beats, Blanking.random, r)
       CoreSim.drain(dut)
-      rtl = RtlResult(monitor.events.toSeq, CoreSim.counters(dut), dut.io.status.corners.toLong, monitor.cycles,
-        monitor.featureStream.toSeq, dut.io.status.features.toLong, dut.io.status.featureDrops.toLong)
+      rtl = CoreSim.result(dut, monitor)
     }
     assert(model.features.nonEmpty && rtl.featureStream == model.featureStream && rtl.featureDrops == 0)
     println(s"[orb] backpressure: ${rtl.features.size} features through a consumer ready half of the time")
@@ -101,8 +100,7 @@ class OrbCoreSpec extends AnyFunSuite {
       dut.io.features.ready #= false
       CoreSim.drive(dut, beats, Blanking.none, rng("stalled"))
       CoreSim.drain(dut)
-      rtl = RtlResult(monitor.events.toSeq, CoreSim.counters(dut), dut.io.status.corners.toLong, monitor.cycles,
-        monitor.featureStream.toSeq, dut.io.status.features.toLong, dut.io.status.featureDrops.toLong)
+      rtl = CoreSim.result(dut, monitor)
     }
     assert(rtl.events == CoreEvents.of(model), "corners and frame ends are not affected")
     assert(rtl.featureDrops == model.features.size - 16, s"all but the 16 in the FIFO are dropped: ${rtl.featureDrops}")

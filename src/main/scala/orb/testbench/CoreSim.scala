@@ -140,12 +140,16 @@ object CoreSim {
     new Monitor(dut)
   }
 
+  /** What the monitor saw, with the core's counters now. */
+  def result(dut: OrbCore, monitor: Monitor): RtlResult =
+    RtlResult(monitor.events.toSeq, counters(dut), dut.io.status.corners.toLong, monitor.cycles, monitor.featureStream.toSeq,
+      dut.io.status.features.toLong, dut.io.status.featureDrops.toLong)
+
   /** One complete run from reset: returns what the core emitted and its counters. */
   def run(dut: OrbCore, beats: Seq[Beat], threshold: Long, blanking: Blanking, seed: Long): RtlResult = {
     val monitor = start(dut, threshold)
     drive(dut, beats, blanking, new Random(seed))
     drain(dut)
-    RtlResult(monitor.events.toSeq, counters(dut), dut.io.status.corners.toLong, monitor.cycles, monitor.featureStream.toSeq,
-      dut.io.status.features.toLong, dut.io.status.featureDrops.toLong)
+    result(dut, monitor)
   }
 }
