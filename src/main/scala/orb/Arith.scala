@@ -12,6 +12,10 @@ object Arith {
     if (terms.isEmpty) U(0, width bits) else terms.reduceBalancedTree(_ + _)
   }
 
+  /** The last `n` values of `v` (element 0 = `v` itself), advancing only on valid pixels: the horizontal extent of
+    * a window, whatever the blanking. */
+  def lastValid[T <: Data](v: T, n: Int, valid: Bool): Vec[T] = History[T](v, n, valid, null.asInstanceOf[T])
+
   /** Arithmetic shift right (floor), written as a slice so that the Verilog has no width-changing shift. */
   def floorShift(v: SInt, n: Int): SInt = if (n == 0) v else v(v.high downto n)
   def floorShift(v: UInt, n: Int): UInt = if (n == 0) v else v(v.high downto n)

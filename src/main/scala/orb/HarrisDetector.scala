@@ -49,9 +49,6 @@ class HarrisDetector(f: FrameConfig, h: HarrisConfig, columnRows: Int, stages: H
     for (r <- 0 until HarrisConfig.rawRows) n(COLUMN)(r) := p.column(r)
   }
 
-  /** The last `n` values of `v` (element 0 = `v` itself), advancing only on valid pixels: the horizontal extent of
-    * a window, whatever the blanking. */
-  private def lastValid[T <: Data](v: T, n: Int, valid: Bool): Vec[T] = History[T](v, n, valid, null.asInstanceOf[T])
 
   /** 1 2 1 smoothing of three values. */
   private def w121(a: SInt, b: SInt, c: SInt, width: Int): SInt = (a.resize(width) + (b.resize(width) |<< 1)) + c.resize(width)

@@ -44,7 +44,7 @@ class Smoother(f: FrameConfig, columnRows: Int) extends Component {
   val COLUMN = nodes(1).insert(gauss7(nodes(0)(TAPS), nodes(0), nodes(1), 16))
   val row = new Area {
     val n = nodes(2)
-    val last7 = History[UInt](n(COLUMN), 7, n.isValid, null.asInstanceOf[UInt])
+    val last7 = lastValid(n(COLUMN), 7, n.isValid)
     val ROUNDED = nodes(3).insert(floorShift(gauss7(last7, n, nodes(3), 24) + U(1 << 15, 24 bits), 16).resize(8))
   }
 
