@@ -64,6 +64,7 @@ class AngleSearch(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) exten
   io.output.m01 := out(IN).m01
   io.output.startRow := out(IN).startRow
   io.output.frameTag := out(IN).frameTag
+  io.output.keyframe := out(IN).keyframe
   io.output.frameEnd := out(IN).frameEnd
   io.output.end := out(IN).end
   io.output.bin := out(unfold.BIN)

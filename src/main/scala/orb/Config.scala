@@ -138,11 +138,53 @@ object OrbDescriptorConfig {
 /** Keyframe store and Hamming matcher.
   *
   * @param storeCapacity keyframe features kept: the first `storeCapacity` of the keyframe in raster order (the
-  *                      rest are counted); 512 x 278 bits is 36 M4K
-  * @param ratioFracBits fraction bits of the ratio-test factor r (best < r * second), a run-time value
+  *                      rest are counted); each takes 278 bits (x, y, descriptor)
+  * @param comparators   Hamming distances computed per clock (P): a live feature takes storeCapacity / P clocks
+  *                      plus the pipeline latency. The store is P RAMs of storeCapacity / P x 278 bits, so the
+  *                      default 512 / 4 = 128 deep fills the M4K's 128 x 36 shape exactly (32 M4K)
+  * @param popcountLevelsPerStage adder levels of the 256-bit popcount tree between pipeline registers
+  * @param ratioFracBits fraction bits of the ratio-test factor r (best < r * second), a run-time value below 2
+  * @param outputDepth   correspondences the output FIFO holds while the consumer stalls (then they are dropped)
+  * @param defaultHammingThreshold, defaultRatio, defaultRatioTest, defaultCrossCheck the run-time parameters'
+  *                      values after reset (registers of `OrbTop`)
   */
-case class MatcherConfig(storeCapacity: Int = 512, ratioFracBits: Int = 8) {
+case class MatcherConfig(storeCapacity: Int = 512, comparators: Int = 4, popcountLevelsPerStage: Int = 2,
+                         ratioFracBits: Int = 8, outputDepth: Int = 64,
+                         defaultHammingThreshold: Int = 64, defaultRatio: Int = 205,
+                         defaultRatioTest: Boolean = false, defaultCrossCheck: Boolean = true) {
   require(storeCapacity >= 1 && ratioFracBits >= 1 && ratioFracBits <= 16)
+  require(comparators >= 1 && isPow2(comparators) && storeCapacity % comparators == 0,
+    "comparators must be a power of two dividing storeCapacity")
+  require(popcountLevelsPerStage >= 1 && outputDepth >= 2)
+  require(defaultHammingThreshold >= 0 && defaultHammingThreshold <= 256 && defaultRatio >= 0 && defaultRatio < (2 << ratioFracBits))
+  def groups: Int = storeCapacity / comparators
+  def ratioWidth: Int = ratioFracBits + 1
+  /** clocks a live feature holds the matcher: the scan, the pipeline, one to decide */
+  def clocksPerFeature: Int = groups + 1 + MatcherConfig.popcountStages(this) + 2 + 1
+}
+
+object MatcherConfig {
+  /** Hamming distances 0..256, and 257 for "none" (no second entry; no live feature yet) */
+  val distanceWidth: Int = 9
+  val none: Int = 257
+  /** The popcount adds 8-bit chunk counts (32 of them) in a binary tree of 5 levels. */
+  val chunkBits: Int = 8
+  val treeLevels: Int = log2Up(256 / chunkBits)
+  def popcountStages(m: MatcherConfig): Int = 1 + (treeLevels + m.popcountLevelsPerStage - 1) / m.popcountLevelsPerStage
+
+  /** Ones in `b` (256 bits), after `popcountStages` clocks: chunk counts registered, then a register every
+    * `levelsPerStage` levels of the adder tree, and after the last. */
+  def popCount(b: Bits, levelsPerStage: Int): UInt = {
+    import spinal.lib._
+    var v: Seq[UInt] = b.subdivideIn(chunkBits bits).map(c => RegNext(CountOne(c))).toSeq
+    var level = 0
+    while (v.size > 1) {
+      v = v.grouped(2).map(g => g(0) +^ g(1)).toSeq
+      level += 1
+      if (level % levelsPerStage == 0 || v.size == 1) v = v.map(RegNext(_))
+    }
+    v.head.resize(distanceWidth)
+  }
 }
 
 /** The whole core. Later stages (descriptor, store, matcher) add their blocks here. */

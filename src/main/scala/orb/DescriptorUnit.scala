@@ -11,6 +11,9 @@ case class OrbFeature(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) e
   val bin = UInt(d.binWidth bits)
   val score = UInt(h.scoreWidth bits)
   val descriptor = Bits(256 bits)
+  /** the feature's frame is a keyframe */
+  val keyframe = Bool()
+  /** not a feature: the end of a processed frame, after all of its features (`end` says how it ended) */
   val frameEnd = Bool()
   val end = FrameEndInfo()
 }
@@ -228,6 +231,7 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
     output.io.push.x := corner.corner.x
     output.io.push.y := corner.corner.y
     output.io.push.bin := corner.bin
+    output.io.push.keyframe := Mux(dispatch.marker, dispatch.head.end.keyframe, corner.keyframe)
     output.io.push.score := corner.corner.score
     output.io.push.descriptor := Vec(engines.map(_.descriptor))(next)
     val outputDrop = e && !drop && !output.io.push.ready

@@ -99,6 +99,7 @@ class FrameTracker(c: FrameConfig) extends Component {
   t.x := RegNext(cur.xNow)
   t.y := RegNext(cur.yNow)
   t.active := RegNext(cur.activeNow && !check.fault) init False
+  t.keyframe := RegNext(cur.keyNow)
   t.ends := RegNext(fire && (close.endsFrame || (cur.inFrameNow && (check.endsFrame || check.complete)))) init False
   t.end.ok := RegNext(check.complete && !close.endsFrame)
   t.end.keyframe := RegNext(Mux(close.endsFrame, key, cur.keyNow))

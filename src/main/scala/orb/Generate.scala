@@ -9,10 +9,10 @@ object Generate {
   val defaultOut = "gen"
   val usage: String =
     s"""usage: orb.Generate [--out DIR] [--config NAME] [--max-width N] [--clock-mhz F]
-       |  --out DIR        where to write OrbCore.v and the Quartus project (default: $defaultOut)
+       |  --out DIR        where to write OrbTop.v and the Quartus project (default: $defaultOut)
        |  --config NAME    preset: ${OrbConfig.presets.keys.toSeq.sorted.mkString(", ")} (default: default)
        |  --max-width N    longest line in pixels (line buffer depth), overrides the preset
-       |  --clock-mhz F     pixel clock of the timing constraint in OrbCore.sdc (default: 50, the DE2-70 board clock;
+       |  --clock-mhz F     pixel clock of the timing constraint in OrbTop.sdc (default: 50, the DE2-70 board clock;
        |                   100 for a faster camera)
        |  --help           this text""".stripMargin
 
@@ -55,7 +55,7 @@ object Generate {
   def generate(o: Options): File = {
     val dir = new File(o.out)
     dir.mkdirs()
-    val report = spinalConfig(o.out).generate(new OrbCore(o.config))
+    val report = spinalConfig(o.out).generate(new OrbTop(o.config))
     val sources = report.generatedSourcesPaths.toSeq.map(p => dir.toPath.toAbsolutePath.relativize(new File(p).toPath.toAbsolutePath).toString).sorted
     QuartusProject.write(dir, report.toplevelName, sources, o.clockMhz)
     new File(dir, s"${report.toplevelName}.v")

@@ -14,6 +14,8 @@ case class OrientedCorner(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfi
   val startRow = UInt(OrientationUnit.rowCountWidth bits)
   /** the corner's frame, counted from reset (wrapping) */
   val frameTag = UInt(OrientationUnit.frameTagWidth bits)
+  /** the corner's frame is a keyframe */
+  val keyframe = Bool()
   /** not a corner: the end of a processed frame, after all of its corners (`end` says how it ended) */
   val frameEnd = Bool()
   val end = FrameEndInfo()
@@ -62,6 +64,7 @@ class OrientationUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, c
     val x = RegNext(io.columns.pixel.x)
     val y = RegNext(io.columns.pixel.y)
     val active = RegNext(io.columns.pixel.active)
+    val keyframe = RegNext(io.columns.pixel.keyframe)
     val ends = RegNext(io.columns.pixel.ends)
     val end = RegNext(io.columns.pixel.end)
     val frameStart = valid && x === 0 && y === 0
@@ -132,6 +135,7 @@ class OrientationUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, c
         // This beat is in row cy + R; the descriptor's 37 smoothed rows are complete when row cy + 22 starts.
         finishing.startRow := sums.rowNow + (OrbDescriptorConfig.startRowOffset - R)
         finishing.frameTag := sums.frameNow
+        finishing.keyframe := sums.keyframe
       }
     }
   }

@@ -18,6 +18,8 @@ case class TrackedPixel(c: FrameConfig) extends Bundle {
   val x, y = UInt(c.coordWidth bits)
   /** part of a processed frame, and no fault in that frame up to and including this pixel */
   val active = Bool()
+  /** the keyframe flag of this pixel's frame (sampled at its start of frame) */
+  val keyframe = Bool()
   /** this beat closes the last processed frame (one beat per processed frame), described by `end` */
   val ends = Bool()
   val end = FrameEndInfo()

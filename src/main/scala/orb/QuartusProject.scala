@@ -3,7 +3,7 @@ package orb
 import java.io.{File, PrintWriter}
 
 /** A Quartus II project for the DE2-70's Cyclone II (EP2C70F896C6) around the generated Verilog: open
-  * `OrbCore.qpf` in Quartus II 13.0sp1 (the last release with Cyclone II) and compile. The core has no pins of
+  * `OrbTop.qpf` in Quartus II 13.0sp1 (the last release with Cyclone II) and compile. The core has no pins of
   * a board: the project compiles it alone (for fit and timing) or it is added to a board design. */
 object QuartusProject {
   val family = "Cyclone II"

@@ -28,7 +28,7 @@ class GenerateSpec extends AnyFunSuite {
     val dir = new File("target/generate-test")
     val (status, msg) = runCli("--out", dir.getPath)
     assert(status == 0, msg)
-    new File(dir, "OrbCore.v")
+    new File(dir, "OrbTop.v")
   }
 
   def tool(cmd: Seq[String]): (Int, String) = {
@@ -40,17 +40,17 @@ class GenerateSpec extends AnyFunSuite {
 
   test("the Quartus project: Cyclone II EP2C70F896C6, every file the .qsf names exists, the clock constraint") {
     val dir = verilog.getParentFile
-    val qsf = new File(dir, "OrbCore.qsf")
-    assert(new File(dir, "OrbCore.qpf").isFile && qsf.isFile)
+    val qsf = new File(dir, "OrbTop.qsf")
+    assert(new File(dir, "OrbTop.qpf").isFile && qsf.isFile)
     val text = scala.io.Source.fromFile(qsf).mkString
-    assert(text.contains("-name FAMILY \"Cyclone II\"") && text.contains("-name DEVICE EP2C70F896C6") && text.contains("-name TOP_LEVEL_ENTITY OrbCore"))
+    assert(text.contains("-name FAMILY \"Cyclone II\"") && text.contains("-name DEVICE EP2C70F896C6") && text.contains("-name TOP_LEVEL_ENTITY OrbTop"))
     val named = QuartusProject.namedFiles(qsf)
-    assert(named.contains("OrbCore.v") && named.contains("OrbCore.sdc"), named)
+    assert(named.contains("OrbTop.v") && named.contains("OrbTop.sdc"), named)
     named.foreach(f => assert(new File(dir, f).isFile, s"$f is named by the .qsf but missing"))
-    assert(scala.io.Source.fromFile(new File(dir, "OrbCore.sdc")).mkString.contains("-period 20.000 [get_ports clk]"))
+    assert(scala.io.Source.fromFile(new File(dir, "OrbTop.sdc")).mkString.contains("-period 20.000 [get_ports clk]"))
     val fast = new File("target/generate-test-100")
     assert(runCli("--out", fast.getPath, "--clock-mhz", "100")._1 == 0)
-    assert(scala.io.Source.fromFile(new File(fast, "OrbCore.sdc")).mkString.contains("-period 10.000 [get_ports clk]"))
+    assert(scala.io.Source.fromFile(new File(fast, "OrbTop.sdc")).mkString.contains("-period 10.000 [get_ports clk]"))
   }
 
   test("--help lists every option and exits 0") {
@@ -61,7 +61,7 @@ class GenerateSpec extends AnyFunSuite {
   }
 
   test("Verilator lint as Verilog-2001: no warning, no error") {
-    val (status, out) = tool(Seq("verilator", "--lint-only", "--default-language", "1364-2001", "--top-module", "OrbCore", verilog.getPath))
+    val (status, out) = tool(Seq("verilator", "--lint-only", "--default-language", "1364-2001", "--top-module", "OrbTop", verilog.getPath))
     assert(status == 0 && !out.contains("%Warning") && !out.contains("%Error"), out)
   }
 
@@ -73,7 +73,7 @@ class GenerateSpec extends AnyFunSuite {
 
   test("every RAM has registered read ports, as Quartus needs for M4K blocks; constant tables are ROMs") {
     val dump = "target/generate-test/memories.txt"
-    val script = s"read_verilog ${verilog.getPath}; hierarchy -top OrbCore; proc; opt -fast; memory -nomap; tee -q -o $dump dump t:$$mem_v2"
+    val script = s"read_verilog ${verilog.getPath}; hierarchy -top OrbTop; proc; opt -fast; memory -nomap; tee -q -o $dump dump t:$$mem_v2"
     val (status, out) = tool(Seq("yosys", "-q", "-p", script))
     assert(status == 0, out.takeRight(3000))
     val text = scala.io.Source.fromFile(dump).mkString
@@ -92,12 +92,12 @@ class GenerateSpec extends AnyFunSuite {
   }
 
   test("Yosys reads (Verilog-2005 parser) and synthesizes the core (memories kept as RAM cells, logic to LUT4)") {
-    val script = s"read_verilog ${verilog.getPath}; hierarchy -check -top OrbCore; proc; opt -fast; memory -nomap; opt -fast; " +
+    val script = s"read_verilog ${verilog.getPath}; hierarchy -check -top OrbTop; proc; opt -fast; memory -nomap; opt -fast; " +
       "wreduce; alumacc; opt -fast; techmap; opt -fast; abc -lut 4; opt_clean; check -assert; stat"
     val (status, out) = tool(Seq("yosys", "-q", "-p", script, "-l", "target/generate-test/yosys.log"))
     assert(status == 0, out.takeRight(3000))
     val log = scala.io.Source.fromFile("target/generate-test/yosys.log").getLines().toSeq
     val cells = log.filter(_.contains("Number of cells")).lastOption.getOrElse("?")
-    println(s"[orb] yosys generic synthesis of OrbCore: ${cells.trim}")
+    println(s"[orb] yosys generic synthesis of OrbTop: ${cells.trim}")
   }
 }

@@ -5,7 +5,7 @@ import org.scalatest.funsuite.AnyFunSuite
 
 /** The matcher model's semantics on hand-made descriptors. */
 class MatcherModelSpec extends AnyFunSuite {
-  val cfg: MatcherConfig = MatcherConfig(storeCapacity = 3)
+  val cfg: MatcherConfig = MatcherConfig(storeCapacity = 3, comparators = 1)
   /** A feature whose descriptor has its first `ones` bits set. */
   def feat(x: Int, ones: Int): Feature =
     Feature(x, 0, 0, 0, Vector.tabulate(32)(b => ((0 until 8).filter(i => b * 8 + i < ones).map(1 << _)).sum))

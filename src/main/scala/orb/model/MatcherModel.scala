@@ -21,7 +21,10 @@ final case class MatchParams(hammingThreshold: Int = 64, ratio: Option[Int] = No
   *    has one entry). Accepted when best <= threshold and, if enabled, best * 2^F < ratio * second.
   *  - Cross-check: a store entry's best live feature over the whole frame (smallest distance, the first live
   *    feature on ties); an accepted match i -> j is kept iff that is i. So cross-checked correspondences are only
-  *    known at the end of the live frame; they come in live-feature order. */
+  *    known at the end of the live frame; they come then, in store (keyframe) order. Without cross-check they come
+  *    in live-feature order.
+  *  - A stream of frames (`run`): a keyframe's features replace the store (also when there are none) and get no
+  *    correspondences; every other frame is matched against the store. The parameters are the same for all. */
 object MatcherModel {
   final case class Store(features: IndexedSeq[Feature], overflow: Int)
 
@@ -51,8 +54,34 @@ object MatcherModel {
       val bestLive = s.features.indices.map { j =>
         if (live.isEmpty) -1 else live.indices.minBy(i => (distance(live(i), s.features(j)), i))
       }
-      candidates.filter { case (i, j, _) => bestLive(j) == i }
+      candidates.filter { case (i, j, _) => bestLive(j) == i }.sortBy(_._2)
     }
     kept.map { case (i, j, b) => Correspondence(live(i).x, live(i).y, s.features(j).x, s.features(j).y, b) }
+  }
+
+  /** One frame of a feature stream: its features, how it ended, and what the matcher emitted for it. */
+  final case class FrameMatches(features: Seq[Feature], end: FrameEnd, correspondences: Seq[Correspondence]) {
+    def keyframe: Boolean = end.keyframe
+  }
+  final case class Run(frames: Seq[FrameMatches], store: Store, overflow: Long) {
+    def correspondences: Seq[Correspondence] = frames.flatMap(_.correspondences)
+  }
+
+  /** The matcher over a feature stream (`CoreResult.featureStream`): each frame's features, then its end. */
+  def run(stream: Seq[Either[FrameEnd, Feature]], p: MatchParams, cfg: MatcherConfig): Run = {
+    var s = Store(Vector.empty, 0)
+    var overflow = 0L
+    val frames = Vector.newBuilder[FrameMatches]
+    var pending = Vector.newBuilder[Feature]
+    stream.foreach {
+      case Right(f) => pending += f
+      case Left(end) =>
+        val fs = pending.result(); pending = Vector.newBuilder[Feature]
+        if (end.keyframe) {
+          s = store(fs, cfg); overflow += s.overflow
+          frames += FrameMatches(fs, end, Nil)
+        } else frames += FrameMatches(fs, end, matchFrame(s, fs, p, cfg))
+    }
+    Run(frames.result(), s, overflow)
   }
 }

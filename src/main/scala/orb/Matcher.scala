@@ -1,0 +1,254 @@
+package orb
+
+import spinal.core._
+import spinal.lib._
+
+/** A correspondence: a live feature at (liveX, liveY) matched to the keyframe feature at (keyX, keyY). */
+case class CorrespondenceBeat(f: FrameConfig) extends Bundle {
+  val liveX, liveY, keyX, keyY = UInt(f.coordWidth bits)
+  val distance = UInt(MatcherConfig.distanceWidth bits)
+}
+
+/** Run-time matching parameters (`orb.model.MatchParams` in hardware); sampled at the first item of each frame. */
+case class MatchParamsHw(m: MatcherConfig) extends Bundle {
+  val hammingThreshold = UInt(MatcherConfig.distanceWidth bits)
+  val ratio = UInt(m.ratioWidth bits)
+  val ratioTest, crossCheck = Bool()
+}
+
+case class MatcherStatus(f: FrameConfig) extends Bundle {
+  /** features in the store now; keyframe features beyond the capacity (all keyframes so far) */
+  val stored, storeOverflow = UInt(f.counterWidth bits)
+  /** correspondences pushed to the output FIFO; those dropped because it was full */
+  val matches, matchDrops = UInt(f.counterWidth bits)
+}
+
+/** Keyframe store and brute-force Hamming matcher, as `orb.model.MatcherModel`.
+  *
+  * Input: the feature stream with its frame-end items. A frame whose items carry `keyframe` replaces the store with
+  * its first `storeCapacity` features (one per clock). Every other frame's feature is compared with the whole
+  * store, `comparators` entries per clock: lane l holds entries l, l + P, l + 2P, ... in its own RAM, so a scan
+  * reads one group of P entries per clock. Each lane computes the Hamming distance (xor, popcount tree pipelined
+  * every `popcountLevelsPerStage` adder levels); the lanes are merged into best (first on ties) and second best,
+  * accumulated over the groups. The feature is held (input not ready) for `groups + latency + 1` clocks.
+  *
+  * Cross-check (mutual nearest neighbours, OpenCV's BFMatcher crossCheck): every entry keeps the best live
+  * feature of the frame so far (distance, position, and whether that live feature's own best is this entry). A
+  * live feature that beats an entry's distance (strictly: the first on ties) takes it over during its scan; when
+  * its scan ends, its best entry is marked mutual if it took that entry over and the match is accepted. At the
+  * frame's end item the entries are read in store order: the mutual ones are emitted (so cross-checked
+  * correspondences come at the end of the frame, in keyframe order) and every entry is cleared, one per clock.
+  * Without cross-check a correspondence leaves as soon as its scan ends, in live order.
+  *
+  * The output FIFO never stalls the matcher: a correspondence that finds it full is dropped and counted. */
+class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: MatcherConfig) extends Component {
+  import MatcherConfig.{distanceWidth, none}
+  val io = new Bundle {
+    val features = slave Stream (OrbFeature(f, h, d))
+    val params = in(MatchParamsHw(m))
+    val correspondences = master Stream (CorrespondenceBeat(f))
+    val status = out(MatcherStatus(f))
+  }
+  val P = m.comparators
+  val cw = f.coordWidth
+  val groupWidth = log2Up(m.groups max 2)
+  val countWidth = log2Up(m.storeCapacity + 1)
+
+  case class Entry() extends Bundle { val x, y = UInt(cw bits); val descriptor = Bits(256 bits) }
+  /** per entry: the best live feature of this frame so far */
+  case class Cross() extends Bundle {
+    val distance = UInt(distanceWidth bits) // `none` until a live feature has been compared
+    val mutual = Bool()
+    val liveX, liveY = UInt(cw bits)
+  }
+  def pick[T <: Data](v: Seq[T], lane: UInt): T = if (P == 1) v.head else Vec(v)(lane.resize(log2Up(P)))
+  def clearedCross: Cross = { val c = Cross(); c.distance := none; c.mutual := False; c.liveX := 0; c.liveY := 0; c }
+
+  val item = io.features
+  val isKey = Mux(item.frameEnd, item.end.keyframe, item.keyframe)
+
+  // Frame state: the first item of a frame samples the parameters and, on a keyframe, empties the store.
+  val frame = new Area {
+    val first = Reg(Bool()) init True
+    val key = Reg(Bool()) init False
+    val params = Reg(MatchParamsHw(m))
+    params.hammingThreshold init m.defaultHammingThreshold
+    params.ratio init m.defaultRatio
+    params.ratioTest init False
+    params.crossCheck init False
+    val keyNow = Mux(first, isKey, key)
+    val paramsNow = Mux(first, io.params, params)
+    when(item.fire) {
+      first := item.frameEnd
+      when(first) { key := isKey; params := io.params }
+    }
+  }
+
+  val stored = Reg(UInt(countWidth bits)) init 0
+  val storedNow = Mux(frame.first && isKey, U(0, countWidth bits), stored)
+  val groups = ((stored +^ (P - 1)) >> log2Up(P)).resize(groupWidth + 1)
+
+  val lanes = for (l <- 0 until P) yield new Area {
+    val store = Mem(Entry(), m.groups)
+    val cross = Mem(Cross(), m.groups)
+  }
+
+  // Keyframe features: written one per clock in arrival order, the rest counted.
+  val load = new Area {
+    val write = item.fire && frame.keyNow && !item.frameEnd
+    val room = storedNow < m.storeCapacity
+    val entry = Entry(); entry.x := item.x; entry.y := item.y; entry.descriptor := item.descriptor
+    val lane = storedNow.resize(log2Up(P) max 1)
+    val addr = (storedNow >> log2Up(P)).resize(groupWidth)
+    val overflow = write && !room
+    when(item.fire && frame.first && isKey) { stored := 0 }
+    when(write && room) { stored := storedNow + 1 }
+  }
+
+  // Live features: the scan over the store, one group per clock.
+  val scan = new Area {
+    val busy = Reg(Bool()) init False
+    val group = Reg(UInt(groupWidth + 1 bits)) init 0
+    val live = Reg(Entry())
+    val issuing = busy && group < groups
+    when(issuing) { group := group + 1 }
+    val start = item.fire && !frame.keyNow && !item.frameEnd
+    when(start) { busy := True; group := 0; live.x := item.x; live.y := item.y; live.descriptor := item.descriptor }
+    val readAddr = group.resize(groupWidth)
+  }
+
+  // Frame end of a live frame: every entry read in store order, the mutual ones emitted, all cleared.
+  val sweep = new Area {
+    val busy = Reg(Bool()) init False
+    val entry = Reg(UInt(countWidth bits)) init 0
+    val reading = busy && entry < stored
+    when(reading) { entry := entry + 1 }
+    when(busy && !reading) { busy := False }
+    when(item.fire && item.frameEnd && !frame.keyNow) { busy := True; entry := 0 }
+    val lane = entry.resize(log2Up(P) max 1)
+    val addr = (entry >> log2Up(P)).resize(groupWidth)
+  }
+
+  /** Clocks from a group's read to its merged result (RAM read, popcount stages, compare, merge). */
+  val popStages = MatcherConfig.popcountStages(m)
+  val latency = 1 + popStages + 2
+
+  // The read side of every lane: store and cross state, by the scan or the sweep.
+  val reads = for ((lane, l) <- lanes.zipWithIndex) yield new Area {
+    val sweepHere = sweep.reading && (if (P == 1) True else sweep.lane === l)
+    val addr = Mux(sweep.busy, sweep.addr, scan.readAddr)
+    val enable = scan.issuing || sweepHere
+    val entry = lane.store.readSync(addr, enable)
+    val cross = lane.cross.readSync(addr, enable)
+  }
+
+  // The compare pipeline, stage by stage, side-band data delayed alongside.
+  val compare = new Area {
+    val valid0 = RegNext(scan.issuing) init False
+    val group0 = RegNext(scan.readAddr)
+    val valid = Delay(valid0, popStages, init = False)
+    val group = Delay(group0, popStages)
+    case class Lane() extends Bundle {
+      val distance = UInt(distanceWidth bits)
+      val index = UInt(countWidth bits)
+      val wins = Bool()
+      val keyX, keyY = UInt(cw bits)
+    }
+    val results = for ((r, l) <- reads.zipWithIndex) yield new Area {
+      val count = MatcherConfig.popCount(r.entry.descriptor ^ scan.live.descriptor, m.popcountLevelsPerStage)
+      val old = Delay(r.cross, popStages)
+      val keyX = Delay(r.entry.x, popStages); val keyY = Delay(r.entry.y, popStages)
+      val index = (group.resize(countWidth) |<< log2Up(P)) | U(l, countWidth bits)
+      val real = index < stored
+      val wins = valid && real && count < old.distance
+      // A live feature nearer than the entry's best so far takes the entry over (mutual decided when its scan ends).
+      val update = Cross(); update.distance := count; update.mutual := False
+      update.liveX := scan.live.x; update.liveY := scan.live.y
+      val out = Lane()
+      out.distance := Mux(real, count, U(none, distanceWidth bits))
+      out.index := index; out.wins := wins; out.keyX := keyX; out.keyY := keyY
+      val writeUpdate = wins
+    }
+    case class Best() extends Bundle { val best = Lane(); val second = UInt(distanceWidth bits) }
+    def single(l: Lane): Best = { val b = Best(); b.best := l; b.second := none; b }
+    /** best of two (the left, earlier entries, on ties) and the second smallest distance of the union */
+    def merge(a: Best, b: Best): Best = {
+      val r = Best()
+      val takeB = b.best.distance < a.best.distance
+      r.best := Mux(takeB, b.best, a.best)
+      val loser = Mux(takeB, a.best.distance, b.best.distance)
+      val s = Mux(a.second < b.second, a.second, b.second)
+      r.second := Mux(loser < s, loser, s)
+      r
+    }
+    val merged = RegNext(results.map(r => single(r.out)).reduceBalancedTree(merge))
+    val mergedValid = RegNext(valid) init False
+    val mergedFirst = RegNext(valid && group === 0) init False
+    val acc = Reg(Best())
+    when(mergedValid) { acc := Mux(mergedFirst, merged, merge(acc, merged)) }
+    val accValid = RegNext(mergedValid) init False
+    val lastGroup = RegNext(mergedValid && (RegNext(group) === (groups - 1).resize(groupWidth))) init False
+  }
+
+  // A feature's scan is over when its last group has been accumulated: accept or not, then the next feature.
+  val decide = new Area {
+    val done = compare.lastGroup
+    val emptyDone = scan.busy && groups === 0 // an empty store: nothing to scan
+    val a = compare.acc
+    val p = frame.params
+    val ratioOk = !p.ratioTest || ((a.best.distance << m.ratioFracBits).resize(distanceWidth + m.ratioFracBits + 1) <
+      (p.ratio * a.second).resize(distanceWidth + m.ratioFracBits + 1))
+    val accepted = done && a.best.distance <= p.hammingThreshold && ratioOk
+    val mark = accepted && p.crossCheck && a.best.wins
+    val emit = accepted && !p.crossCheck
+    when(done || emptyDone) { scan.busy := False }
+    val markLane = a.best.index.resize(log2Up(P) max 1)
+    val markAddr = (a.best.index >> log2Up(P)).resize(groupWidth)
+    val markValue = Cross(); markValue.distance := a.best.distance; markValue.mutual := True
+    markValue.liveX := scan.live.x; markValue.liveY := scan.live.y
+  }
+
+  // Sweep results, one clock after the read.
+  val swept = new Area {
+    val valid = RegNext(sweep.reading) init False
+    val lane = RegNext(sweep.lane)
+    val addr = RegNext(sweep.addr)
+    val cross = pick(reads.map(_.cross), lane)
+    val entry = pick(reads.map(_.entry), lane)
+    val emit = valid && cross.mutual && frame.params.crossCheck
+  }
+
+  // One write port per lane RAM: keyframe load, scan take-over, mutual mark, sweep clear (never two at once).
+  for ((lane, l) <- lanes.zipWithIndex) {
+    def here(sel: UInt): Bool = if (P == 1) True else sel === l
+    lane.store.write(load.addr, load.entry, load.write && load.room && here(load.lane))
+    val c = compare.results(l)
+    val loadHere = load.write && load.room && here(load.lane)
+    val markHere = decide.mark && here(decide.markLane)
+    val clearHere = swept.valid && here(swept.lane)
+    lane.cross.write(
+      address = Mux(loadHere, load.addr, Mux(markHere, decide.markAddr, Mux(clearHere, swept.addr, compare.group))),
+      data = Mux(loadHere || clearHere, clearedCross, Mux(markHere, decide.markValue, c.update)),
+      enable = loadHere || markHere || clearHere || c.writeUpdate)
+  }
+
+  item.ready := !scan.busy && !sweep.busy
+
+  val output = StreamFifo(CorrespondenceBeat(f), m.outputDepth)
+  val push = output.io.push
+  push.valid := decide.emit || swept.emit
+  push.liveX := Mux(swept.emit, swept.cross.liveX, scan.live.x)
+  push.liveY := Mux(swept.emit, swept.cross.liveY, scan.live.y)
+  push.keyX := Mux(swept.emit, swept.entry.x, compare.acc.best.keyX)
+  push.keyY := Mux(swept.emit, swept.entry.y, compare.acc.best.keyY)
+  push.distance := Mux(swept.emit, swept.cross.distance, compare.acc.best.distance)
+  io.correspondences << output.io.pop
+
+  val counters = new Area {
+    def counter(inc: Bool): UInt = { val c = Reg(UInt(f.counterWidth bits)) init 0; when(inc) { c := c + 1 }; c }
+    io.status.stored := stored.resized
+    io.status.storeOverflow := counter(load.overflow)
+    io.status.matches := counter(push.fire)
+    io.status.matchDrops := counter(push.valid && !push.ready)
+  }
+}

@@ -1,0 +1,74 @@
+package orb
+
+import spinal.core._
+import spinal.lib._
+import spinal.lib.bus.avalon._
+
+/** The complete core: camera pixels in, correspondences out, parameters and counters on Avalon-MM.
+  *
+  * pixels -> OrbCore (Harris, orientation, BRIEF) -> feature Stream -> Matcher (keyframe store, Hamming scan)
+  *        -> correspondence Stream (behind a FIFO; what finds it full is dropped and counted)
+  *
+  * The camera is never stalled: the matcher holds the feature stream while it scans, the feature FIFO absorbs
+  * bursts, and a feature that finds it full is dropped and counted (`FEATURE_DROPS`). */
+class OrbTop(val cfg: OrbConfig = OrbConfig.default) extends Component {
+  val io = new Bundle {
+    val pixels = slave Flow (PixelBeat())
+    val correspondences = master Stream (CorrespondenceBeat(cfg.frame))
+    val ctrl = slave(AvalonMM(OrbTop.avalonConfig))
+  }
+  val core = new OrbCore(cfg)
+  val matcher = new Matcher(cfg.frame, cfg.harris, cfg.descriptor, cfg.matcher)
+  core.io.pixels << io.pixels
+  matcher.io.features << core.io.features
+  io.correspondences << matcher.io.correspondences
+
+  val regs = new Area {
+    import OrbTop.Registers._
+    val bus = AvalonMMSlaveFactory(io.ctrl)
+    val m = cfg.matcher
+    bus.read(B(OrbTop.id, 32 bits), ID)
+    val ratioTest = bus.createReadAndWrite(Bool(), CONTROL, 0) init Bool(m.defaultRatioTest)
+    val crossCheck = bus.createReadAndWrite(Bool(), CONTROL, 1) init Bool(m.defaultCrossCheck)
+    val harrisThreshold = bus.createReadAndWrite(UInt(32 bits), HARRIS_THRESHOLD) init cfg.harris.defaultThreshold
+    val hamming = bus.createReadAndWrite(UInt(MatcherConfig.distanceWidth bits), HAMMING_THRESHOLD) init m.defaultHammingThreshold
+    val ratio = bus.createReadAndWrite(UInt(m.ratioWidth bits), RATIO) init m.defaultRatio
+    core.io.harrisThreshold := harrisThreshold
+    matcher.io.params.hammingThreshold := hamming
+    matcher.io.params.ratio := ratio
+    matcher.io.params.ratioTest := ratioTest
+    matcher.io.params.crossCheck := crossCheck
+    val s = core.io.status; val t = matcher.io.status
+    for ((value, address) <- Seq(s.frames -> FRAMES, s.badFrames -> BAD_FRAMES, s.badLines -> BAD_LINES,
+      s.corners -> CORNERS, s.features -> FEATURES, s.featureDrops -> FEATURE_DROPS, t.stored -> STORED,
+      t.storeOverflow -> STORE_OVERFLOW, t.matches -> MATCHES, t.matchDrops -> MATCH_DROPS))
+      bus.read(value, address)
+  }
+}
+
+object OrbTop {
+  /** "ORB" and the register map's version */
+  val id: BigInt = BigInt("4f524201", 16)
+  val avalonConfig: AvalonMMConfig = AvalonMMSlaveFactory.getAvalonConfig(addressWidth = 8, dataWidth = 32)
+
+  /** Byte addresses of the 32-bit registers (the README documents them). */
+  object Registers {
+    val ID = 0x00
+    /** bit 0: ratio test on, bit 1: cross-check on (both take effect at the next frame) */
+    val CONTROL = 0x04
+    val HARRIS_THRESHOLD = 0x08
+    val HAMMING_THRESHOLD = 0x0c
+    /** ratio-test factor r scaled 2^ratioFracBits (accept when best < r * second) */
+    val RATIO = 0x10
+    val FRAMES = 0x20
+    val BAD_FRAMES = 0x24
+    val BAD_LINES = 0x28
+    val CORNERS = 0x2c
+    val FEATURES = 0x30
+    val FEATURE_DROPS = 0x34
+    val STORED = 0x38
+    val STORE_OVERFLOW = 0x3c
+    val MATCHES = 0x40
+    val MATCH_DROPS = 0x44
+  }
+}

@@ -1,0 +1,167 @@
+package orb
+
+import orb.model._
+import orb.testbench._
+import org.scalatest.funsuite.AnyFunSuite
+import spinal.core._
+import spinal.core.sim._
+
+import java.io.{File, PrintWriter}
+import scala.collection.mutable.ArrayBuffer
+import scala.util.Random
+
+/** The matcher alone (a 16-entry store, 4 comparators, an 8-deep output FIFO) against `MatcherModel`, on
+  * hand-made feature streams: store overflow, thresholds, ratio test, cross-check, ties, empty stores, back-pressure. */
+class MatcherSpec extends AnyFunSuite {
+  import TestSupport._
+  val m: MatcherConfig = MatcherConfig(storeCapacity = 16, comparators = 4, outputDepth = 8)
+  val f: FrameConfig = FrameConfig(maxWidth = 128, maxHeight = 128)
+  lazy val matcher: SimCompiled[Matcher] = {
+    println(s"[orb] compiling the Verilator model of Matcher (16 entries); seed = $seed")
+    CoreSim.simConfig("simWorkspace/matcher").compile(new Matcher(f, HarrisConfig(), OrbDescriptorConfig(), m))
+  }
+
+  final case class RtlMatches(correspondences: Seq[Correspondence], stored: Long, overflow: Long, matches: Long, drops: Long)
+
+  /** Drives `stream` (features and frame ends) with random gaps; the consumer is ready with probability `ready`
+    * (1: always) and, if `stallFor` > 0, not at all for that many clocks after the first frame end. */
+  def runRtl(name: String, stream: Seq[Either[FrameEnd, Feature]], p: MatchParams, ready: Double, stallFor: Int = 0): RtlMatches = {
+    var out: RtlMatches = null
+    matcher.doSim(name, seed.toInt) { dut =>
+      val r0 = rng(name)
+      val in = dut.io.features
+      in.valid #= false; in.x #= 0; in.y #= 0; in.bin #= 0; in.score #= 0; in.descriptor #= 0
+      in.keyframe #= false; in.frameEnd #= false; in.end.ok #= true; in.end.keyframe #= false
+      dut.io.params.hammingThreshold #= p.hammingThreshold
+      dut.io.params.ratio #= p.ratio.getOrElse(0).toLong
+      dut.io.params.ratioTest #= p.ratio.isDefined
+      dut.io.params.crossCheck #= p.crossCheck
+      dut.io.correspondences.ready #= true
+      CoreSim.startClock(dut.clockDomain)
+      val got = ArrayBuffer[Correspondence]()
+      var stallLeft = -1
+      dut.clockDomain.onSamplings {
+        val c = dut.io.correspondences
+        if (c.valid.toBoolean && c.ready.toBoolean)
+          got += Correspondence(c.liveX.toInt, c.liveY.toInt, c.keyX.toInt, c.keyY.toInt, c.distance.toInt)
+        val r = if (stallLeft > 0) { stallLeft -= 1; false } else ready >= 1 || r0.nextDouble() < ready
+        c.ready #= r
+      }
+      val keyFlags = stream.indices.map(i => stream.drop(i).collectFirst { case Left(e) => e.keyframe }.getOrElse(false))
+      for ((item, i) <- stream.zipWithIndex) {
+        while (r0.nextInt(4) == 0) dut.clockDomain.waitSampling()
+        in.valid #= true
+        item match {
+          case Right(ft) =>
+            in.frameEnd #= false; in.x #= ft.x; in.y #= ft.y; in.bin #= ft.bin; in.score #= ft.score
+            in.descriptor #= ft.descriptor.zipWithIndex.map { case (b, i) => BigInt(b) << (8 * i) }.sum
+            in.keyframe #= keyFlags(i)
+          case Left(e) =>
+            in.frameEnd #= true; in.end.ok #= e.ok; in.end.keyframe #= e.keyframe; in.keyframe #= e.keyframe
+            if (stallFor > 0 && stallLeft < 0) stallLeft = stallFor
+        }
+        dut.clockDomain.waitSamplingWhere(in.ready.toBoolean)
+        in.valid #= false
+      }
+      dut.clockDomain.waitSampling(m.clocksPerFeature + m.storeCapacity + 4 * m.outputDepth + stallFor + 100)
+      val s = dut.io.status
+      out = RtlMatches(got.toSeq, s.stored.toLong, s.storeOverflow.toLong, s.matches.toLong, s.matchDrops.toLong)
+    }
+    out
+  }
+
+  /** A keyframe of `nKey` random descriptors (a quarter of them repeated: ties between entries), then live
+    * frames mixing noisy copies (0..40 bits flipped), exact copies (ties between live features) and unrelated ones. */
+  def scenario(rng: Random, nKey: Int, liveFrames: Int, nLive: Int, keyAgainAt: Int = -1): Seq[Either[FrameEnd, Feature]] = {
+    def randomDesc = Vector.fill(32)(rng.nextInt(256))
+    def feature(d: Vector[Int]) = Feature(rng.nextInt(128), rng.nextInt(128), rng.nextInt(512), rng.nextInt(1 << 20), d)
+    val out = ArrayBuffer[Either[FrameEnd, Feature]]()
+    // A quarter of the keyframe repeats earlier descriptors: ties between entries.
+    def keyframe(n: Int) = { val base = Vector.fill(n - n / 4)(randomDesc); base ++ Vector.fill(n / 4)(base(rng.nextInt(base.size))) }
+    var key = keyframe(nKey)
+    out ++= key.map(d => Right(feature(d))); out += Left(FrameEnd(ok = true, keyframe = true))
+    for (frame <- 0 until liveFrames) {
+      if (frame == keyAgainAt) {
+        key = keyframe(nKey / 2)
+        out ++= key.map(d => Right(feature(d))); out += Left(FrameEnd(ok = rng.nextBoolean(), keyframe = true))
+      }
+      for (_ <- 0 until nLive) {
+        val d = if (key.nonEmpty && rng.nextInt(5) != 0) {
+          val k = key(rng.nextInt(key.size))
+          val flips = if (rng.nextInt(4) == 0) 0 else rng.nextInt(40)
+          (0 until flips).foldLeft(k) { (v, _) => val b = rng.nextInt(256); v.updated(b / 8, v(b / 8) ^ (1 << (b % 8))) }
+        } else randomDesc
+        out += Right(feature(d))
+      }
+      out += Left(FrameEnd(ok = true, keyframe = false))
+    }
+    out.toSeq
+  }
+
+  def check(name: String, stream: Seq[Either[FrameEnd, Feature]], p: MatchParams, ready: Double = 1.0, stallFor: Int = 0): (MatcherModel.Run, RtlMatches) = {
+    val model = MatcherModel.run(stream, p, m)
+    val rtl = runRtl(name, stream, p, ready, stallFor)
+    val expected = model.correspondences
+    assert(rtl.stored == model.store.features.size, s"$name: stored")
+    assert(rtl.overflow == model.overflow, s"$name: overflow count")
+    assert(rtl.matches == rtl.correspondences.size, s"$name: match counter")
+    if (rtl.drops == 0) {
+      if (rtl.correspondences != expected) {
+        val dir = new File(Scoreboard.dumpDir, name.replaceAll("[^A-Za-z0-9_.-]+", "_")); dir.mkdirs()
+        for ((file, cs) <- Seq("model.csv" -> expected, "rtl.csv" -> rtl.correspondences)) {
+          val w = new PrintWriter(new File(dir, file))
+          w.println("live_x,live_y,key_x,key_y,distance"); cs.foreach(c => w.println(s"${c.liveX},${c.liveY},${c.keyX},${c.keyY},${c.distance}")); w.close()
+        }
+        val i = expected.zipAll(rtl.correspondences, null, null).indexWhere { case (a, b) => a != b }
+        fail(s"$name: model ${expected.size} correspondences, RTL ${rtl.correspondences.size}; first difference at $i: " +
+          s"${expected.lift(i)} vs ${rtl.correspondences.lift(i)}; dumped to ${dir.getPath}")
+      }
+    } else {
+      // Drops: what arrived is the model's sequence with some left out, and every one left out is counted.
+      val rest = rtl.correspondences.foldLeft(expected.toList) { (r, c) =>
+        val after = r.dropWhile(_ != c); assert(after.nonEmpty, s"$name: $c is not the model's next"); after.tail
+      }
+      assert(rtl.drops == expected.size - rtl.correspondences.size, s"$name: drops counted")
+    }
+    println(f"[orb] $name%-36s ${expected.size} expected, ${rtl.correspondences.size} received, ${rtl.drops} dropped")
+    (model, rtl)
+  }
+
+  val plain = MatchParams(hammingThreshold = 64)
+  test("threshold only: live order, first entry on ties") {
+    val (model, _) = check("threshold", scenario(rng("threshold"), 13, 3, 20), plain, ready = 0.7)
+    assert(model.correspondences.nonEmpty)
+  }
+  test("ratio test, against the brute-force model") {
+    val (model, _) = check("ratio", scenario(rng("ratio"), 16, 3, 20), MatchParams(hammingThreshold = 128, ratio = Some(205)))
+    assert(model.correspondences.nonEmpty)
+  }
+  test("cross-check: mutual pairs at the frame end, in keyframe order") {
+    val stream = scenario(rng("cross"), 16, 3, 24)
+    val (model, _) = check("cross-check", stream, MatchParams(hammingThreshold = 100, crossCheck = true))
+    val plainCount = MatcherModel.run(stream, MatchParams(hammingThreshold = 100), m).correspondences.size
+    assert(model.correspondences.nonEmpty && model.correspondences.size < plainCount, "the scenario exercises the check")
+  }
+  test("cross-check with the ratio test and a threshold of 0 and 256") {
+    val stream = scenario(rng("both"), 12, 2, 16)
+    check("cross+ratio", stream, MatchParams(hammingThreshold = 256, ratio = Some(230), crossCheck = true))
+    check("threshold 0", stream, MatchParams(hammingThreshold = 0, crossCheck = true))
+  }
+  test("store overflow: the first 16 are kept, the rest counted; a new keyframe replaces the store") {
+    val (model, _) = check("overflow", scenario(rng("overflow"), 23, 3, 12, keyAgainAt = 1), plain)
+    assert(model.overflow == 7)
+  }
+  test("empty store: no correspondence, no hang; a single entry has no second best") {
+    val rng0 = rng("empty")
+    check("single entry", scenario(rng0, 1, 2, 6), MatchParams(hammingThreshold = 256, ratio = Some(511)))
+    val noKey = scenario(rng0, 0, 2, 6)
+    val (model, _) = check("empty store", noKey, plain)
+    assert(model.correspondences.isEmpty)
+  }
+  test("a stalled consumer: correspondences dropped and counted, the matcher never waits") {
+    val stream = scenario(rng("stall"), 16, 4, 30)
+    val (_, rtl) = check("stalled consumer", stream, MatchParams(hammingThreshold = 100), stallFor = 3000)
+    assert(rtl.drops > 0, "the stall must overflow the 8-deep FIFO")
+    check("cross-check, slow consumer", stream, MatchParams(hammingThreshold = 100, crossCheck = true), ready = 0.1)
+  }
+}
