@@ -144,18 +144,20 @@ object OrbDescriptorConfig {
   *                      default 512 / 4 = 128 deep fills the M4K's 128 x 36 shape exactly (32 M4K)
   * @param popcountLevelsPerStage adder levels of the 256-bit popcount tree between pipeline registers
   * @param ratioFracBits fraction bits of the ratio-test factor r (best < r * second), a run-time value below 2
-  * @param outputDepth   correspondences the output FIFO holds while the consumer stalls (then they are dropped)
+  * @param outputDepth   correspondences the output FIFO holds
+  * @param outputTimeout clocks the matcher waits for a consumer that keeps the FIFO full before it drops (and
+  *                      counts) correspondences instead (a slower consumer loses nothing)
   * @param defaultHammingThreshold, defaultRatio, defaultRatioTest, defaultCrossCheck the run-time parameters'
   *                      values after reset (registers of `OrbTop`)
   */
 case class MatcherConfig(storeCapacity: Int = 512, comparators: Int = 4, popcountLevelsPerStage: Int = 2,
-                         ratioFracBits: Int = 8, outputDepth: Int = 64,
+                         ratioFracBits: Int = 8, outputDepth: Int = 64, outputTimeout: Int = 4096,
                          defaultHammingThreshold: Int = 64, defaultRatio: Int = 205,
                          defaultRatioTest: Boolean = false, defaultCrossCheck: Boolean = true) {
   require(storeCapacity >= 1 && ratioFracBits >= 1 && ratioFracBits <= 16)
   require(comparators >= 1 && isPow2(comparators) && storeCapacity % comparators == 0,
     "comparators must be a power of two dividing storeCapacity")
-  require(popcountLevelsPerStage >= 1 && outputDepth >= 2)
+  require(popcountLevelsPerStage >= 1 && outputDepth >= 2 && outputTimeout >= 1)
   require(defaultHammingThreshold >= 0 && defaultHammingThreshold <= 256 && defaultRatio >= 0 && defaultRatio < (2 << ratioFracBits))
   def groups: Int = storeCapacity / comparators
   def ratioWidth: Int = ratioFracBits + 1

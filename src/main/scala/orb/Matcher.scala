@@ -40,7 +40,11 @@ case class MatcherStatus(f: FrameConfig) extends Bundle {
   * correspondences come at the end of the frame, in keyframe order) and every entry is cleared, one per clock.
   * Without cross-check a correspondence leaves as soon as its scan ends, in live order.
   *
-  * The output FIFO never stalls the matcher: a correspondence that finds it full is dropped and counted. */
+  * Output: a FIFO of `outputDepth`. The matcher paces itself to a slow consumer (it takes the next item, and the
+  * sweep reads the next entry, only when the FIFO has room), so nothing is lost to a consumer that is merely
+  * slower than one per clock. When the FIFO has been full for `outputTimeout` clocks (a stalled consumer) it stops
+  * waiting and drops, and counts, what does not fit until the consumer takes one again: the feature stream keeps
+  * flowing, so later frames are still matched. */
 class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: MatcherConfig) extends Component {
   import MatcherConfig.{distanceWidth, none}
   val io = new Bundle {
@@ -117,13 +121,28 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
     val readAddr = group.resize(groupWidth)
   }
 
+  val output = StreamFifo(CorrespondenceBeat(f), m.outputDepth)
+  // Waiting for the consumer, with a limit.
+  val paced = new Area {
+    val full = !output.io.push.ready
+    /** fewer than two free places: the sweep, one push in flight, has to wait */
+    val tight = output.io.availability < 2
+    val waited = Reg(UInt(log2Up(m.outputTimeout + 1) bits)) init 0
+    val giveUp = waited === m.outputTimeout
+    when(!tight) { waited := 0 } elsewhen (!giveUp) { waited := waited + 1 }
+    /** a scan's correspondence (pushed when the scan ends, with nothing else pushed meanwhile) will fit */
+    val itemRoom = !full || giveUp
+    /** the entry read now is pushed next clock: room for it after this clock's push */
+    val sweepRoom = !tight || giveUp
+  }
+
   // Frame end of a live frame: every entry read in store order, the mutual ones emitted, all cleared.
   val sweep = new Area {
     val busy = Reg(Bool()) init False
     val entry = Reg(UInt(countWidth bits)) init 0
-    val reading = busy && entry < stored
+    val reading = busy && entry < stored && paced.sweepRoom
     when(reading) { entry := entry + 1 }
-    when(busy && !reading) { busy := False }
+    when(busy && entry >= stored) { busy := False }
     when(item.fire && item.frameEnd && !frame.keyNow) { busy := True; entry := 0 }
     val lane = entry.resize(log2Up(P) max 1)
     val addr = (entry >> log2Up(P)).resize(groupWidth)
@@ -232,9 +251,8 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
       enable = loadHere || markHere || clearHere || c.writeUpdate)
   }
 
-  item.ready := !scan.busy && !sweep.busy
+  item.ready := !scan.busy && !sweep.busy && paced.itemRoom
 
-  val output = StreamFifo(CorrespondenceBeat(f), m.outputDepth)
   val push = output.io.push
   push.valid := decide.emit || swept.emit
   push.liveX := Mux(swept.emit, swept.cross.liveX, scan.live.x)

@@ -11,10 +11,11 @@ import scala.collection.mutable.ArrayBuffer
 import scala.util.Random
 
 /** The matcher alone (a 16-entry store, 4 comparators, an 8-deep output FIFO) against `MatcherModel`, on
-  * hand-made feature streams: store overflow, thresholds, ratio test, cross-check, ties, empty stores, back-pressure. */
+  * hand-made feature streams: store overflow, thresholds, ratio test, cross-check, ties, empty stores, a slow
+  * consumer (nothing lost) and a stalled one (drops after the 200-clock timeout, counted). */
 class MatcherSpec extends AnyFunSuite {
   import TestSupport._
-  val m: MatcherConfig = MatcherConfig(storeCapacity = 16, comparators = 4, outputDepth = 8)
+  val m: MatcherConfig = MatcherConfig(storeCapacity = 16, comparators = 4, outputDepth = 8, outputTimeout = 200)
   val f: FrameConfig = FrameConfig(maxWidth = 128, maxHeight = 128)
   lazy val matcher: SimCompiled[Matcher] = {
     println(s"[orb] compiling the Verilator model of Matcher (16 entries); seed = $seed")
@@ -158,10 +159,13 @@ class MatcherSpec extends AnyFunSuite {
     val (model, _) = check("empty store", noKey, plain)
     assert(model.correspondences.isEmpty)
   }
-  test("a stalled consumer: correspondences dropped and counted, the matcher never waits") {
+  test("a slow consumer loses nothing; a stalled one gets counted drops after the timeout, and no hang") {
     val stream = scenario(rng("stall"), 16, 4, 30)
-    val (_, rtl) = check("stalled consumer", stream, MatchParams(hammingThreshold = 100), stallFor = 3000)
-    assert(rtl.drops > 0, "the stall must overflow the 8-deep FIFO")
-    check("cross-check, slow consumer", stream, MatchParams(hammingThreshold = 100, crossCheck = true), ready = 0.1)
+    for (cross <- Seq(false, true)) {
+      val (_, slow) = check(s"slow consumer, cross-check $cross", stream, MatchParams(hammingThreshold = 100, crossCheck = cross), ready = 0.1)
+      assert(slow.drops == 0)
+      val (_, stalled) = check(s"stalled consumer, cross-check $cross", stream, MatchParams(hammingThreshold = 100, crossCheck = cross), stallFor = 3000)
+      assert(stalled.drops > 0, "a 3000-clock stall must outlast the timeout")
+    }
   }
 }
