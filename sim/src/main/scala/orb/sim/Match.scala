@@ -1,0 +1,293 @@
+package orb.sim
+
+import orb._
+import orb.model._
+import orb.testbench._
+import spinal.core.sim._
+
+import java.awt.{BasicStroke, Color, RenderingHints}
+import java.awt.image.BufferedImage
+import java.io.{File, PrintWriter}
+import javax.imageio.ImageIO
+import scala.util.Random
+
+/** `sim/runMain orb.sim.Match --key A.png --live B.png --out DIR [options]`: one keyframe and one live image
+  * through the core (the golden model or the Verilator RTL), with every output a user wants to look at. */
+object Match {
+  val app = "orb.sim.Match"
+  val usage: String =
+    s"""usage: $app --key KEY.png --live LIVE.png --out DIR [options]
+       |  --engine model|rtl      the golden model (default; seconds) or the Verilator simulation of OrbTop (minutes)
+       |  --homography H.txt      3x3 keyframe -> live homography: inlier ratios in summary.json, coloured matches.png
+       |  --hamming N             accept a best match at distance <= N (0..256, default ${OrbConfig.default.matcher.defaultHammingThreshold})
+       |  --ratio R               ratio test: best < R * second best (0 < R < 2, e.g. 0.8; default off)
+       |  --cross-check / --no-cross-check   mutual nearest neighbours only (default ${if (OrbConfig.default.matcher.defaultCrossCheck) "on" else "off"})
+       |  --harris-threshold T    corner score threshold (default ${OrbConfig.default.harris.defaultThreshold})
+       |  --config NAME           core preset: ${OrbConfig.presets.keys.toSeq.sorted.mkString(", ")} (default: default)
+       |  --wave                  (rtl) DIR/wave.fst over the live frame's first rows (or around --trace), DIR/wave.gtkw
+       |  --wave-rows N           rows of the live frame in the waveform (default 48)
+       |  --trace X,Y             every stage's values for the live feature nearest (X, Y): DIR/trace.txt
+       |  --seed N                blanking and back-pressure of the rtl run (default 1)
+       |  --help                  this text""".stripMargin
+
+  final case class Options(key: String = null, live: String = null, out: String = null, engine: String = "model",
+                           homography: Option[String] = None, params: MatchParams = MatchParams(
+                             OrbConfig.default.matcher.defaultHammingThreshold, None, OrbConfig.default.matcher.defaultCrossCheck),
+                           threshold: Long = OrbConfig.default.harris.defaultThreshold, configName: String = "default",
+                           wave: Boolean = false, waveRows: Int = 48, trace: Option[(Int, Int)] = None, seed: Long = 1) {
+    def config: OrbConfig = OrbConfig.presets(configName)
+  }
+
+  final class UsageError(msg: String) extends Exception(msg)
+  private def fail(msg: String): Nothing = throw new UsageError(msg)
+
+  def parse(args: Seq[String]): Options = {
+    def int(flag: String, v: String, lo: Long, hi: Long): Long =
+      v.toLongOption.filter(n => n >= lo && n <= hi).getOrElse(fail(s"$flag takes a whole number from $lo to $hi, not '$v'"))
+    def loop(rest: List[String], o: Options): Options = rest match {
+      case Nil => o
+      case "--key" :: v :: t => loop(t, o.copy(key = v))
+      case "--live" :: v :: t => loop(t, o.copy(live = v))
+      case "--out" :: v :: t => loop(t, o.copy(out = v))
+      case "--engine" :: v :: t =>
+        if (v != "model" && v != "rtl") fail(s"--engine is model or rtl, not '$v'") else loop(t, o.copy(engine = v))
+      case "--homography" :: v :: t => loop(t, o.copy(homography = Some(v)))
+      case "--hamming" :: v :: t => loop(t, o.copy(params = o.params.copy(hammingThreshold = int("--hamming", v, 0, 256).toInt)))
+      case "--ratio" :: v :: t =>
+        val r = v.toDoubleOption.filter(r => r > 0 && r < 2).getOrElse(fail(s"--ratio takes a number between 0 and 2, not '$v'"))
+        val scaled = math.round(r * (1 << o.config.matcher.ratioFracBits)).toInt min ((2 << o.config.matcher.ratioFracBits) - 1)
+        loop(t, o.copy(params = o.params.copy(ratio = Some(scaled))))
+      case "--cross-check" :: t => loop(t, o.copy(params = o.params.copy(crossCheck = true)))
+      case "--no-cross-check" :: t => loop(t, o.copy(params = o.params.copy(crossCheck = false)))
+      case "--harris-threshold" :: v :: t => loop(t, o.copy(threshold = int("--harris-threshold", v, 0, 0xffffffffL)))
+      case "--config" :: v :: t =>
+        if (!OrbConfig.presets.contains(v)) fail(s"unknown --config '$v' (known: ${OrbConfig.presets.keys.toSeq.sorted.mkString(", ")})")
+        loop(t, o.copy(configName = v))
+      case "--wave" :: t => loop(t, o.copy(wave = true))
+      case "--wave-rows" :: v :: t => loop(t, o.copy(waveRows = int("--wave-rows", v, 1, 2047).toInt))
+      case "--trace" :: v :: t => v.split(",").toSeq.map(_.trim.toIntOption) match {
+        case Seq(Some(x), Some(y)) if x >= 0 && y >= 0 => loop(t, o.copy(trace = Some((x, y))))
+        case _ => fail(s"--trace takes X,Y (two non-negative whole numbers), not '$v'")
+      }
+      case "--seed" :: v :: t => loop(t, o.copy(seed = int("--seed", v, Long.MinValue, Long.MaxValue)))
+      case flag :: Nil if flag.startsWith("--") && !Set("--cross-check", "--no-cross-check", "--wave")(flag) =>
+        fail(s"$flag needs a value")
+      case other :: _ => fail(s"unknown argument '$other' (see --help)")
+    }
+    val o = loop(args.toList, Options())
+    if (o.key == null || o.live == null || o.out == null) fail("--key, --live and --out are required (see --help)")
+    if (o.wave && o.engine != "rtl") fail("--wave needs --engine rtl")
+    o
+  }
+
+  /** Loads an image and checks it against the configuration's limits. */
+  def loadImage(path: String, flag: String, cfg: OrbConfig): GrayImage = {
+    val img = try GrayImage.load(path) catch { case e: IllegalArgumentException => fail(s"$flag: ${e.getMessage}") }
+    val (maxW, maxH) = (cfg.frame.maxWidth, cfg.frame.maxHeight)
+    if (img.width > maxW || img.height > maxH)
+      fail(s"$flag $path is ${img.width}x${img.height}; this configuration takes at most ${maxW}x$maxH (see --config)")
+    val minSide = 2 * cfg.harris.border + 1
+    if (img.width < minSide || img.height < minSide)
+      fail(s"$flag $path is ${img.width}x${img.height}; features need at least ${minSide}x$minSide (a ${cfg.harris.border}-px border)")
+    img
+  }
+
+  /** What either engine produced. */
+  final case class Outcome(featureStream: Seq[Either[FrameEnd, Feature]], correspondences: Seq[Correspondence],
+                           counters: Seq[(String, Long)], cycles: Option[Long], pixels: Long, rtl: Option[TopResult])
+
+  def runModel(o: Options, beats: Seq[Beat]): Outcome = {
+    val r = SystemModel.run(o.config, beats, o.threshold, o.params)
+    val c = r.core
+    val counters = Seq("frames" -> c.counters.frames, "bad_frames" -> c.counters.badFrames, "bad_lines" -> c.counters.badLines,
+      "corners" -> c.cornerCount, "features" -> c.features.size.toLong, "feature_drops" -> 0L,
+      "stored" -> r.matches.store.features.size.toLong, "store_overflow" -> r.matches.overflow,
+      "matches" -> r.correspondences.size.toLong, "match_drops" -> 0L)
+    Outcome(c.featureStream, r.correspondences, counters, None, beats.size.toLong, None)
+  }
+
+  def runRtl(o: Options, beats: Seq[Beat], live: GrayImage, dir: File): Outcome = {
+    if (!hasVerilator) fail("--engine rtl needs Verilator 5 on the PATH (apt-get install verilator)")
+    val cfg = o.config
+    val workspace = s"simWorkspace/match-${o.configName}${if (o.wave) "-wave" else ""}"
+    System.err.println(s"$app: compiling the Verilator model of OrbTop in $workspace (a few minutes)")
+    val compiled = TopSim.compile(cfg, workspace, wave = o.wave)
+    var result: TopResult = null
+    val total = beats.size
+    val liveStart = beats.lastIndexWhere(_.sof)
+    // The waveform covers rows [first, last) of the live frame.
+    val (firstRow, lastRow) = o.trace match {
+      case Some((_, ty)) => ((ty - o.waveRows / 2) max 0, (ty - o.waveRows / 2 max 0) + o.waveRows)
+      case None => (0, o.waveRows)
+    }
+    val waveFrom = liveStart + firstRow * live.width
+    val waveTo = liveStart + lastRow * live.width
+    val started = System.nanoTime()
+    compiled.doSim("match", o.seed.toInt) { dut =>
+      if (o.wave) disableSimWave()
+      val rng = new Random(o.seed)
+      val (bus, monitor) = TopSim.start(dut, o.threshold, o.params, 1.0, rng)
+      var sent = 0
+      if (o.wave) fork {
+        // Switch the waveform on and off at the chosen beats (the driver counts them in `sent`).
+        dut.clockDomain.waitSamplingWhere(sent >= waveFrom); enableSimWave()
+        dut.clockDomain.waitSamplingWhere(sent >= waveTo || sent >= total); disableSimWave()
+      }
+      val blanking = Blanking.camera
+      val chunk = 1 << 14
+      var lastReport = System.nanoTime()
+      for ((part, i) <- beats.grouped(chunk).zipWithIndex) {
+        CoreSim.drivePixels(dut.io.pixels, dut.clockDomain, part, blanking, rng)
+        sent = (i + 1) * chunk min total
+        if (System.nanoTime() - lastReport > 3e9) {
+          lastReport = System.nanoTime()
+          System.err.println(f"$app: rtl ${100.0 * sent / total}%5.1f%% of ${total / 1000}k pixels, ${(lastReport - started) / 1e9}%.0f s")
+        }
+      }
+      TopSim.drain(dut, monitor, cfg)
+      result = TopSim.result(dut, bus, monitor, total.toLong)
+    }
+    val counters = TopSim.registerNames.map { case (n, _) => n -> result.register(n) }
+    if (o.wave) {
+      val fst = new File(workspace, "match/wave.fst")
+      if (fst.isFile) java.nio.file.Files.copy(fst.toPath, new File(dir, "wave.fst").toPath, java.nio.file.StandardCopyOption.REPLACE_EXISTING)
+      Waves.writeGtkw(new File(dir, "wave.gtkw"), new File(dir, "wave.fst"))
+    }
+    Outcome(result.featureStream, result.correspondences, counters, Some(result.cycles), total.toLong, Some(result))
+  }
+
+  def hasVerilator: Boolean =
+    try { new ProcessBuilder("verilator", "--version").redirectErrorStream(true).start().waitFor() == 0 } catch { case _: Exception => false }
+
+  // ---- outputs ----
+
+  def writeCorrespondences(f: File, cs: Seq[Correspondence]): Unit = write(f) { w =>
+    w.println("live_x,live_y,key_x,key_y,distance")
+    cs.foreach(c => w.println(s"${c.liveX},${c.liveY},${c.keyX},${c.keyY},${c.distance}"))
+  }
+
+  def writeFeatures(f: File, fs: Seq[Feature], cfg: OrbConfig): Unit = write(f) { w =>
+    w.println("x,y,angle_deg,score,descriptor")
+    fs.foreach(ft => w.println(f"${ft.x},${ft.y},${OrbModel.binDegrees(ft.bin, cfg.descriptor)}%.4f,${ft.score},${ft.hex}"))
+  }
+
+  def write(f: File)(body: PrintWriter => Unit): Unit = { val w = new PrintWriter(f); try body(w) finally w.close() }
+
+  /** Keyframe left, live right, one line per correspondence: green within 3 px of the homography's prediction,
+    * red beyond; yellow without ground truth. */
+  def drawMatches(key: GrayImage, live: GrayImage, cs: Seq[Correspondence], h: Option[Array[Double]]): BufferedImage = {
+    val gap = 8
+    val out = new BufferedImage(key.width + gap + live.width, key.height max live.height, BufferedImage.TYPE_INT_RGB)
+    val g = out.createGraphics()
+    g.setColor(Color.BLACK); g.fillRect(0, 0, out.getWidth, out.getHeight)
+    g.drawImage(key.toBufferedImage, 0, 0, null)
+    g.drawImage(live.toBufferedImage, key.width + gap, 0, null)
+    g.setRenderingHint(RenderingHints.KEY_ANTIALIASING, RenderingHints.VALUE_ANTIALIAS_ON)
+    g.setStroke(new BasicStroke(1.2f))
+    for (c <- cs) {
+      g.setColor(h match {
+        case Some(m) => if (Homography.error(m, c) <= 3) new Color(0, 220, 0) else new Color(230, 30, 30)
+        case None => new Color(255, 220, 0)
+      })
+      g.drawLine(c.keyX, c.keyY, key.width + gap + c.liveX, c.liveY)
+      g.drawOval(c.keyX - 2, c.keyY - 2, 4, 4); g.drawOval(key.width + gap + c.liveX - 2, c.liveY - 2, 4, 4)
+    }
+    g.dispose()
+    out
+  }
+
+  def json(fields: Seq[(String, Any)]): String = fields.map { case (k, v) =>
+    val value = v match {
+      case s: String => "\"" + s.replace("\\", "\\\\").replace("\"", "\\\"") + "\""
+      case None => "null"
+      case Some(x) => x.toString
+      case d: Double => if (d.isNaN) "null" else f"$d%.6f"
+      case m: Seq[_] => json(m.asInstanceOf[Seq[(String, Any)]]).linesIterator.map("  " + _).mkString("\n").trim
+      case x => x.toString
+    }
+    s"""  "$k": $value"""
+  }.mkString("{\n", ",\n", "\n}")
+
+  def run(args: Seq[String]): Int = {
+    val o = try parse(args) catch { case e: UsageError => System.err.println(s"$app: ${e.getMessage}"); return 2 }
+    try { execute(o); 0 } catch {
+      case e: UsageError => System.err.println(s"$app: ${e.getMessage}"); 2
+      case e: java.io.IOException => System.err.println(s"$app: ${e.getMessage}"); 1
+    }
+  }
+
+  def execute(o: Options): Unit = {
+    val cfg = o.config
+    val key = loadImage(o.key, "--key", cfg)
+    val live = loadImage(o.live, "--live", cfg)
+    val h = o.homography.map(p => try Homography.load(p) catch { case e: Exception => fail(s"--homography: ${e.getMessage}") })
+    val dir = new File(o.out)
+    dir.mkdirs()
+    if (!dir.isDirectory) fail(s"--out: cannot create the directory $dir")
+    val beats = SystemModel.pairBeats(key, live)
+    val started = System.nanoTime()
+    val outcome = if (o.engine == "model") runModel(o, beats) else runRtl(o, beats, live, dir)
+    val wall = (System.nanoTime() - started) / 1e9
+    val run = MatcherModel.run(outcome.featureStream, o.params, cfg.matcher) // to split features by frame
+    val (keyFeatures, liveFeatures) = SystemModel.keyAndLive(run)
+    writeCorrespondences(new File(dir, "correspondences.csv"), outcome.correspondences)
+    writeFeatures(new File(dir, "key_features.csv"), keyFeatures, cfg)
+    writeFeatures(new File(dir, "live_features.csv"), liveFeatures, cfg)
+    ImageIO.write(drawMatches(key, live, outcome.correspondences, h), "png", new File(dir, "matches.png"))
+    val inliers = h.map(m => Homography.quality(outcome.correspondences, m))
+    val summary = Seq[(String, Any)](
+      "engine" -> o.engine, "config" -> o.configName,
+      "key" -> Seq("path" -> o.key, "width" -> key.width, "height" -> key.height, "features" -> keyFeatures.size),
+      "live" -> Seq("path" -> o.live, "width" -> live.width, "height" -> live.height, "features" -> liveFeatures.size),
+      "params" -> Seq("harris_threshold" -> o.threshold, "hamming" -> o.params.hammingThreshold,
+        "ratio" -> o.params.ratio.map(r => r.toDouble / (1 << cfg.matcher.ratioFracBits)), "cross_check" -> o.params.crossCheck),
+      "counters" -> outcome.counters,
+      "correspondences" -> outcome.correspondences.size,
+      "cycles" -> outcome.cycles, "pixels" -> outcome.pixels,
+      "pixels_per_clock" -> outcome.cycles.map(c => f"${outcome.pixels.toDouble / c}%.4f"),
+      "wall_seconds" -> f"$wall%.3f",
+      "inliers_3px" -> inliers.map(q => f"${q.inliers3}%.4f"), "inliers_8px" -> inliers.map(q => f"${q.inliers8}%.4f"))
+    write(new File(dir, "summary.json"))(_.println(json(summary)))
+    for (t <- o.trace) {
+      val text = Trace.report(t, cfg, key, live, o, run, outcome.rtl)
+      write(new File(dir, "trace.txt"))(_.print(text))
+      println(text)
+    }
+    println(f"$app: ${o.engine}: ${keyFeatures.size} keyframe features, ${liveFeatures.size} live features, " +
+      f"${outcome.correspondences.size} correspondences" + inliers.fold("")(q => f", ${q.inliers3 * 100}%.1f%% within 3 px") +
+      f" ($wall%.1f s); wrote ${dir.getPath}/{correspondences.csv,key_features.csv,live_features.csv,summary.json,matches.png}")
+  }
+
+  def main(args: Array[String]): Unit = {
+    if (args.contains("--help")) { println(usage); return }
+    val status = run(args.toSeq)
+    if (status != 0) sys.exit(status)
+  }
+}
+
+/** Ground truth: a 3x3 homography from keyframe to live coordinates. */
+object Homography {
+  final case class Quality(matches: Int, inliers3: Double, inliers8: Double)
+
+  def load(path: String): Array[Double] = {
+    val f = new File(path)
+    if (!f.isFile) throw new IllegalArgumentException(s"no such file: $path")
+    val v = scala.io.Source.fromFile(f).getLines().flatMap(_.trim.split("\\s+")).filter(_.nonEmpty)
+      .map(s => s.toDoubleOption.getOrElse(throw new IllegalArgumentException(s"$path: '$s' is not a number"))).toArray
+    if (v.length != 9) throw new IllegalArgumentException(s"$path: a homography has 9 numbers, found ${v.length}")
+    v
+  }
+  def project(h: Array[Double], x: Double, y: Double): (Double, Double) = {
+    val w = h(6) * x + h(7) * y + h(8)
+    ((h(0) * x + h(1) * y + h(2)) / w, (h(3) * x + h(4) * y + h(5)) / w)
+  }
+  def error(h: Array[Double], kx: Double, ky: Double, lx: Double, ly: Double): Double = {
+    val (px, py) = project(h, kx, ky); math.hypot(px - lx, py - ly)
+  }
+  def error(h: Array[Double], c: Correspondence): Double = error(h, c.keyX, c.keyY, c.liveX, c.liveY)
+  def quality(cs: Seq[Correspondence], h: Array[Double]): Quality = qualityOf(cs.map(c => error(h, c)))
+  def qualityOf(errors: Seq[Double]): Quality = {
+    def frac(t: Double) = if (errors.isEmpty) 0.0 else errors.count(_ <= t).toDouble / errors.size
+    Quality(errors.size, frac(3), frac(8))
+  }
+}

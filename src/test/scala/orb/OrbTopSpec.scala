@@ -1,0 +1,76 @@
+package orb
+
+import orb.model._
+import orb.testbench._
+import org.scalatest.funsuite.AnyFunSuite
+import spinal.core.sim._
+
+import java.io.{File, PrintWriter}
+
+/** The complete core (`OrbTop`: pixels -> correspondences, Avalon-MM registers) against `SystemModel`, end to end
+  * on real image pairs, with random blanking and a consumer that is not always ready. */
+class OrbTopSpec extends AnyFunSuite {
+  import TestSupport._
+  lazy val top: SimCompiled[OrbTop] = {
+    println(s"[orb] compiling the Verilator model of OrbTop (default config); seed = $seed (override with ORB_SEED)")
+    TopSim.compile(config, workspace = "simWorkspace/top")
+  }
+
+  def writeCsv(f: File, cs: Seq[Correspondence]): Unit = {
+    val w = new PrintWriter(f)
+    try { w.println("live_x,live_y,key_x,key_y,distance"); cs.foreach(c => w.println(s"${c.liveX},${c.liveY},${c.keyX},${c.keyY},${c.distance}")) }
+    finally w.close()
+  }
+
+  def check(name: String, key: GrayImage, live: GrayImage, p: MatchParams, blanking: Blanking, ready: Double): (SystemModel.Result, TopResult) = {
+    val beats = SystemModel.pairBeats(key, live)
+    val model = SystemModel.run(config, beats, threshold, p)
+    var rtl: TopResult = null
+    top.doSim(name, seed.toInt) { dut => rtl = TopSim.run(dut, config, beats, threshold, p, blanking, ready, rng(name).nextLong()) }
+    val fd = model.core.featureStream.zipAll(rtl.featureStream, null, null).indexWhere { case (a, b) => a != b }
+    assert(fd < 0, s"$name: feature stream item $fd: model ${model.core.featureStream.lift(fd)} vs RTL ${rtl.featureStream.lift(fd)}")
+    if (model.correspondences != rtl.correspondences) {
+      val dir = new File(Scoreboard.dumpDir, name.replaceAll("[^A-Za-z0-9_.-]+", "_")); dir.mkdirs()
+      writeCsv(new File(dir, "model.csv"), model.correspondences); writeCsv(new File(dir, "rtl.csv"), rtl.correspondences)
+      val i = model.correspondences.zipAll(rtl.correspondences, null, null).indexWhere { case (a, b) => a != b }
+      fail(s"$name: model ${model.correspondences.size} correspondences, RTL ${rtl.correspondences.size}; first difference at $i: " +
+        s"${model.correspondences.lift(i)} vs ${rtl.correspondences.lift(i)}; dumped to ${dir.getPath}")
+    }
+    val r = rtl.registers
+    val c = model.core
+    assert(r("frames") == c.counters.frames && r("bad_frames") == c.counters.badFrames && r("bad_lines") == c.counters.badLines)
+    assert(r("corners") == c.cornerCount && r("features") == c.features.size && r("feature_drops") == 0)
+    assert(r("stored") == model.matches.store.features.size && r("store_overflow") == model.matches.overflow)
+    assert(r("matches") == model.correspondences.size && r("match_drops") == 0)
+    println(f"[orb] $name%-40s ${c.features.size} features, ${model.matches.store.features.size} stored " +
+      f"(${model.matches.overflow} over), ${rtl.correspondences.size} correspondences, ${rtl.cycles} clocks")
+    (model, rtl)
+  }
+
+  test("graf1 -> graf3 at full size (800x640): random blanking, consumer ready 30% of clocks, cross-check, store overflow") {
+    val (model, _) = check("graf1-graf3 full", image("graf1.png"), image("graf3.png"),
+      MatchParams(hammingThreshold = config.matcher.defaultHammingThreshold, crossCheck = true), Blanking.random, ready = 0.3)
+    assert(model.matches.overflow > 0, "graf1 has more features than the store")
+    assert(model.correspondences.size > 50)
+  }
+
+  test("crops of different sizes: the geometry is relearnt; ratio test without cross-check, blanking of a camera") {
+    val key = image("graf1.png").crop(200, 150, 320, 256)
+    val live = image("graf3.png").crop(180, 160, 288, 240)
+    val (model, rtl) = check("crops ratio", key, live, MatchParams(hammingThreshold = 80, ratio = Some(205)), Blanking.camera, ready = 0.5)
+    assert(rtl.registers("bad_frames") == 1, "the first frame of the new size is a counted fault")
+    val last = model.matches.frames.last
+    assert(last.end.ok && !last.keyframe && last.features.nonEmpty && model.correspondences.nonEmpty)
+  }
+
+  test("registers: ID, read back of every parameter") {
+    import OrbTop.Registers._
+    top.doSim("registers", seed.toInt) { dut =>
+      val (bus, _) = TopSim.start(dut, 12345, MatchParams(hammingThreshold = 77, ratio = Some(200), crossCheck = true), 1.0, rng("regs"))
+      assert(bus.read(ID) == OrbTop.id.toLong)
+      assert(bus.read(HARRIS_THRESHOLD) == 12345 && bus.read(HAMMING_THRESHOLD) == 77 && bus.read(RATIO) == 200 && bus.read(CONTROL) == 3)
+      bus.write(CONTROL, 0)
+      assert(bus.read(CONTROL) == 0 && bus.read(FRAMES) == 0 && bus.read(STORED) == 0)
+    }
+  }
+}
