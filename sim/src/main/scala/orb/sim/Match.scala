@@ -120,38 +120,35 @@ object Match {
       case Some((_, ty)) => ((ty - o.waveRows / 2) max 0, (ty - o.waveRows / 2 max 0) + o.waveRows)
       case None => (0, o.waveRows)
     }
-    val waveFrom = liveStart + firstRow * live.width
-    val waveTo = liveStart + lastRow * live.width
+    val waveFrom = (liveStart + firstRow * live.width) min total
+    val waveTo = (liveStart + lastRow * live.width) min total
     val started = System.nanoTime()
     compiled.doSim("match", o.seed.toInt) { dut =>
       if (o.wave) disableSimWave()
       val rng = new Random(o.seed)
       val (bus, monitor) = TopSim.start(dut, o.threshold, o.params, 1.0, rng)
-      var sent = 0
-      if (o.wave) fork {
-        // Switch the waveform on and off at the chosen beats (the driver counts them in `sent`).
-        dut.clockDomain.waitSamplingWhere(sent >= waveFrom); enableSimWave()
-        dut.clockDomain.waitSamplingWhere(sent >= waveTo || sent >= total); disableSimWave()
-      }
-      val blanking = Blanking.camera
-      val chunk = 1 << 14
+      // Beats in parts: the waveform is switched on for [waveFrom, waveTo) only; progress between parts.
+      val cuts = (Seq(0, total) ++ (if (o.wave) Seq(waveFrom, waveTo) else Nil) ++ (0 until total by (1 << 16)))
+        .filter(c => c >= 0 && c <= total).distinct.sorted
       var lastReport = System.nanoTime()
-      for ((part, i) <- beats.grouped(chunk).zipWithIndex) {
-        CoreSim.drivePixels(dut.io.pixels, dut.clockDomain, part, blanking, rng)
-        sent = (i + 1) * chunk min total
+      for (Seq(from, to) <- cuts.sliding(2)) {
+        if (o.wave && from == waveFrom) enableSimWave()
+        if (o.wave && from == waveTo) disableSimWave()
+        CoreSim.drivePixels(dut.io.pixels, dut.clockDomain, beats.slice(from, to), Blanking.camera, rng)
         if (System.nanoTime() - lastReport > 3e9) {
           lastReport = System.nanoTime()
-          System.err.println(f"$app: rtl ${100.0 * sent / total}%5.1f%% of ${total / 1000}k pixels, ${(lastReport - started) / 1e9}%.0f s")
+          System.err.println(f"$app: rtl ${100.0 * to / total}%5.1f%% of ${total / 1000}k pixels, ${(lastReport - started) / 1e9}%.0f s")
         }
       }
+      if (o.wave && waveTo >= total) disableSimWave()
       TopSim.drain(dut, monitor, cfg)
       result = TopSim.result(dut, bus, monitor, total.toLong)
     }
     val counters = TopSim.registerNames.map { case (n, _) => n -> result.register(n) }
     if (o.wave) {
-      val fst = new File(workspace, "match/wave.fst")
+      val fst = new File(workspace, "OrbTop/match/wave.fst")
       if (fst.isFile) java.nio.file.Files.copy(fst.toPath, new File(dir, "wave.fst").toPath, java.nio.file.StandardCopyOption.REPLACE_EXISTING)
-      Waves.writeGtkw(new File(dir, "wave.gtkw"), new File(dir, "wave.fst"))
+      Waves.writeGtkw(new File(dir, "wave.gtkw"), new File(dir, "wave.fst"), compiled.dut)
     }
     Outcome(result.featureStream, result.correspondences, counters, Some(result.cycles), total.toLong, Some(result))
   }
@@ -184,7 +181,9 @@ object Match {
     g.drawImage(live.toBufferedImage, key.width + gap, 0, null)
     g.setRenderingHint(RenderingHints.KEY_ANTIALIASING, RenderingHints.VALUE_ANTIALIAS_ON)
     g.setStroke(new BasicStroke(1.2f))
-    for (c <- cs) {
+    // Outliers first, so that the inliers stay visible on top.
+    val ordered = h.fold(cs)(m => cs.sortBy(c => -Homography.error(m, c)))
+    for (c <- ordered) {
       g.setColor(h match {
         case Some(m) => if (Homography.error(m, c) <= 3) new Color(0, 220, 0) else new Color(230, 30, 30)
         case None => new Color(255, 220, 0)
@@ -196,23 +195,25 @@ object Match {
     out
   }
 
-  def json(fields: Seq[(String, Any)]): String = fields.map { case (k, v) =>
-    val value = v match {
-      case s: String => "\"" + s.replace("\\", "\\\\").replace("\"", "\\\"") + "\""
-      case None => "null"
-      case Some(x) => x.toString
-      case d: Double => if (d.isNaN) "null" else f"$d%.6f"
-      case m: Seq[_] => json(m.asInstanceOf[Seq[(String, Any)]]).linesIterator.map("  " + _).mkString("\n").trim
+  /** A small JSON writer: nested Seq[(String, Any)] are objects; Option is null or its value. */
+  def json(fields: Seq[(String, Any)], indent: String = ""): String = {
+    def value(v: Any): String = v match {
+      case None | null => "null"
+      case Some(x) => value(x)
+      case s: String => "\"" + s.flatMap { case '"' => "\\\""; case '\\' => "\\\\"; case c if c < ' ' => f"\\u${c.toInt}%04x"; case c => c.toString } + "\""
+      case d: Double => if (d.isNaN || d.isInfinite) "null" else f"$d%.6f"
+      case obj: Seq[_] => json(obj.asInstanceOf[Seq[(String, Any)]], indent + "  ")
       case x => x.toString
     }
-    s"""  "$k": $value"""
-  }.mkString("{\n", ",\n", "\n}")
+    fields.map { case (k, v) => s"""$indent  "$k": ${value(v)}""" }.mkString("{\n", ",\n", s"\n$indent}")
+  }
 
-  def run(args: Seq[String]): Int = {
-    val o = try parse(args) catch { case e: UsageError => System.err.println(s"$app: ${e.getMessage}"); return 2 }
+  /** Exit status: 0 done, 2 bad arguments or input files (one line on `err`), 1 an I/O error while writing. */
+  def run(args: Seq[String], err: java.io.PrintStream = System.err): Int = {
+    val o = try parse(args) catch { case e: UsageError => err.println(s"$app: ${e.getMessage}"); return 2 }
     try { execute(o); 0 } catch {
-      case e: UsageError => System.err.println(s"$app: ${e.getMessage}"); 2
-      case e: java.io.IOException => System.err.println(s"$app: ${e.getMessage}"); 1
+      case e: UsageError => err.println(s"$app: ${e.getMessage}"); 2
+      case e: java.io.IOException => err.println(s"$app: ${e.getMessage}"); 1
     }
   }
 
@@ -244,9 +245,9 @@ object Match {
       "counters" -> outcome.counters,
       "correspondences" -> outcome.correspondences.size,
       "cycles" -> outcome.cycles, "pixels" -> outcome.pixels,
-      "pixels_per_clock" -> outcome.cycles.map(c => f"${outcome.pixels.toDouble / c}%.4f"),
-      "wall_seconds" -> f"$wall%.3f",
-      "inliers_3px" -> inliers.map(q => f"${q.inliers3}%.4f"), "inliers_8px" -> inliers.map(q => f"${q.inliers8}%.4f"))
+      "pixels_per_clock" -> outcome.cycles.map(c => outcome.pixels.toDouble / c),
+      "wall_seconds" -> wall,
+      "inliers_3px" -> inliers.map(_.inliers3), "inliers_8px" -> inliers.map(_.inliers8))
     write(new File(dir, "summary.json"))(_.println(json(summary)))
     for (t <- o.trace) {
       val text = Trace.report(t, cfg, key, live, o, run, outcome.rtl)
