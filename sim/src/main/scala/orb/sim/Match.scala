@@ -41,6 +41,9 @@ object Match {
   final class UsageError(msg: String) extends Exception(msg)
   private def fail(msg: String): Nothing = throw new UsageError(msg)
 
+  private val valued = Set("--key", "--live", "--out", "--engine", "--homography", "--hamming", "--ratio",
+    "--harris-threshold", "--config", "--wave-rows", "--trace", "--seed")
+
   def parse(args: Seq[String]): Options = {
     def int(flag: String, v: String, lo: Long, hi: Long): Long =
       v.toLongOption.filter(n => n >= lo && n <= hi).getOrElse(fail(s"$flag takes a whole number from $lo to $hi, not '$v'"))
@@ -70,8 +73,7 @@ object Match {
         case _ => fail(s"--trace takes X,Y (two non-negative whole numbers), not '$v'")
       }
       case "--seed" :: v :: t => loop(t, o.copy(seed = int("--seed", v, Long.MinValue, Long.MaxValue)))
-      case flag :: Nil if flag.startsWith("--") && !Set("--cross-check", "--no-cross-check", "--wave")(flag) =>
-        fail(s"$flag needs a value")
+      case flag :: Nil if valued(flag) => fail(s"$flag needs a value")
       case other :: _ => fail(s"unknown argument '$other' (see --help)")
     }
     val o = loop(args.toList, Options())
