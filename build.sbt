@@ -66,6 +66,8 @@ lazy val sim: Project = (project in file("sim"))
       "org.bytedeco" % "openblas" % s"0.3.31-$javacvVersion",
       "org.bytedeco" % "openblas" % s"0.3.31-$javacvVersion" classifier platform,
       "org.bytedeco" % "javacpp" % javacvVersion,
-      "org.bytedeco" % "javacpp" % javacvVersion classifier platform
+      "org.bytedeco" % "javacpp" % javacvVersion classifier platform,
+      // Figure 9 plots (orb.sim.Evaluate)
+      "org.knowm.xchart" % "xchart" % "3.8.8"
     )
   )

@@ -137,8 +137,8 @@ object OrbDescriptorConfig {
 
 /** Keyframe store and Hamming matcher.
   *
-  * @param storeCapacity keyframe features kept: the first `storeCapacity` of the keyframe in raster order (the
-  *                      rest are counted); each takes 278 bits (x, y, descriptor)
+  * @param storeCapacity keyframe features kept: the strongest `storeCapacity` of the keyframe by Harris score
+  *                      (the rest are counted); each takes 278 bits (x, y, descriptor) plus its 32-bit score
   * @param comparators   Hamming distances computed per clock (P): a live feature takes storeCapacity / P clocks
   *                      plus the pipeline latency. The store is P RAMs of storeCapacity / P x 278 bits, so the
   *                      default 512 / 4 = 128 deep fills the M4K's 128 x 36 shape exactly (32 M4K)

@@ -26,7 +26,9 @@ case class MatcherStatus(f: FrameConfig) extends Bundle {
 /** Keyframe store and brute-force Hamming matcher, as `orb.model.MatcherModel`.
   *
   * Input: the feature stream with its frame-end items. A frame whose items carry `keyframe` replaces the store with
-  * its first `storeCapacity` features (one per clock). Every other frame's feature is compared with the whole
+  * its strongest `storeCapacity` features (appended one per clock; once full, a stronger feature replaces the
+  * weakest entry and a rescan of the scores, P per clock, finds the next weakest). Every other frame's feature is
+  * compared with the whole
   * store, `comparators` entries per clock: lane l holds entries l, l + P, l + 2P, ... in its own RAM, so a scan
   * reads one group of P entries per clock. Each lane computes the Hamming distance (xor, popcount tree pipelined
   * every `popcountLevelsPerStage` adder levels); the lanes are merged into best (first on ties) and second best,
@@ -95,18 +97,56 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
   val lanes = for (l <- 0 until P) yield new Area {
     val store = Mem(Entry(), m.groups)
     val cross = Mem(Cross(), m.groups)
+    val score = Mem(UInt(h.scoreWidth bits), m.groups)
   }
 
-  // Keyframe features: written one per clock in arrival order, the rest counted.
+  // The weakest entry of a full store (lowest score, the first on ties): the one a stronger feature replaces.
+  val weakest = new Area {
+    val score = Reg(UInt(h.scoreWidth bits)) init 0
+    val index = Reg(UInt(countWidth bits)) init 0
+  }
+
+  // Keyframe features: appended while there is room (keeping track of the weakest), then each one stronger than
+  // the weakest replaces it, after which a rescan of the scores finds the new weakest. Every feature beyond the
+  // capacity, kept or not, costs one: counted as overflow.
   val load = new Area {
-    val write = item.fire && frame.keyNow && !item.frameEnd
+    val keyFeature = item.fire && frame.keyNow && !item.frameEnd
     val room = storedNow < m.storeCapacity
+    val replace = !room && item.score > weakest.score
+    val write = keyFeature && (room || replace)
+    val index = Mux(room, storedNow, weakest.index)
     val entry = Entry(); entry.x := item.x; entry.y := item.y; entry.descriptor := item.descriptor
-    val lane = storedNow.resize(log2Up(P) max 1)
-    val addr = (storedNow >> log2Up(P)).resize(groupWidth)
-    val overflow = write && !room
+    val lane = index.resize(log2Up(P) max 1)
+    val addr = (index >> log2Up(P)).resize(groupWidth)
+    val overflow = keyFeature && !room
     when(item.fire && frame.first && isKey) { stored := 0 }
-    when(write && room) { stored := storedNow + 1 }
+    when(keyFeature && room) {
+      stored := storedNow + 1
+      when(storedNow === 0 || item.score < weakest.score) { weakest.score := item.score; weakest.index := storedNow }
+    }
+  }
+
+  // After a replacement: all scores read, P per clock, and the lowest (first on ties) becomes the weakest.
+  val rescan = new Area {
+    val busy = Reg(Bool()) init False
+    val group = Reg(UInt(groupWidth + 1 bits)) init 0
+    val issuing = busy && group < m.groups
+    when(issuing) { group := group + 1 }
+    when(keyFeatureReplaces) { busy := True; group := 0 }
+    def keyFeatureReplaces: Bool = load.keyFeature && load.replace
+    val scores = lanes.map(_.score.readSync(group.resize(groupWidth), issuing))
+    val valid = RegNext(issuing) init False
+    val base = RegNext(group.resize(countWidth) |<< log2Up(P))
+    // the group's lowest score, the first lane on ties
+    val (low, lane) = scores.zipWithIndex.map { case (v, l) => (v, U(l, countWidth bits)) }
+      .reduceBalancedTree { (a, b) => val takeB = b._1 < a._1; (Mux(takeB, b._1, a._1), Mux(takeB, b._2, a._2)) }
+    val first = RegNext(issuing && group === 0) init False
+    val accScore = Reg(UInt(h.scoreWidth bits)); val accIndex = Reg(UInt(countWidth bits))
+    val takeNew = first || low < accScore
+    when(valid && takeNew) { accScore := low; accIndex := base | lane }
+    // busy until the new weakest is in place, so that the next keyframe feature compares against it
+    val last = RegNext(valid && !issuing) init False
+    when(last) { busy := False; weakest.score := accScore; weakest.index := accIndex }
   }
 
   // Live features: the scan over the store, one group per clock.
@@ -240,9 +280,10 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
   // One write port per lane RAM: keyframe load, scan take-over, mutual mark, sweep clear (never two at once).
   for ((lane, l) <- lanes.zipWithIndex) {
     def here(sel: UInt): Bool = if (P == 1) True else sel === l
-    lane.store.write(load.addr, load.entry, load.write && load.room && here(load.lane))
+    val loadHere = load.write && here(load.lane)
+    lane.store.write(load.addr, load.entry, loadHere)
+    lane.score.write(load.addr, item.score, loadHere)
     val c = compare.results(l)
-    val loadHere = load.write && load.room && here(load.lane)
     val markHere = decide.mark && here(decide.markLane)
     val clearHere = swept.valid && here(swept.lane)
     lane.cross.write(
@@ -251,7 +292,7 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
       enable = loadHere || markHere || clearHere || c.writeUpdate)
   }
 
-  item.ready := !scan.busy && !sweep.busy && paced.itemRoom
+  item.ready := !scan.busy && !sweep.busy && !rescan.busy && paced.itemRoom
 
   val push = output.io.push
   push.valid := decide.emit || swept.emit

@@ -7,12 +7,13 @@ import org.scalatest.funsuite.AnyFunSuite
 class MatcherModelSpec extends AnyFunSuite {
   val cfg: MatcherConfig = MatcherConfig(storeCapacity = 3, comparators = 1)
   /** A feature whose descriptor has its first `ones` bits set. */
-  def feat(x: Int, ones: Int): Feature =
-    Feature(x, 0, 0, 0, Vector.tabulate(32)(b => ((0 until 8).filter(i => b * 8 + i < ones).map(1 << _)).sum))
+  def feat(x: Int, ones: Int, score: Long = 0): Feature =
+    Feature(x, 0, 0, score, Vector.tabulate(32)(b => ((0 until 8).filter(i => b * 8 + i < ones).map(1 << _)).sum))
 
-  test("store keeps the first N of the keyframe and counts the rest") {
-    val s = MatcherModel.store(Seq(feat(1, 0), feat(2, 10), feat(3, 20), feat(4, 30)), cfg)
-    assert(s.features.map(_.x) == Seq(1, 2, 3) && s.overflow == 1)
+  test("store keeps the strongest N of the keyframe (the earliest of equal scores) and counts the rest") {
+    val s = MatcherModel.store(Seq(feat(1, 0, 5), feat(2, 10, 9), feat(3, 20, 5), feat(4, 30, 7), feat(5, 0, 5), feat(6, 0, 6)), cfg)
+    // 4 (score 7) replaces 1, the first of the two weakest (5); 5 (score 5) is not stronger; 6 (score 6) replaces 3
+    assert(s.features.map(_.x) == Seq(4, 2, 6) && s.overflow == 3)
   }
   test("best, first on ties; second equals best on a tie; threshold and ratio") {
     val s = MatcherModel.store(Seq(feat(1, 10), feat(2, 10), feat(3, 40)), cfg)

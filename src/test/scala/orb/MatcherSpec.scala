@@ -75,7 +75,7 @@ class MatcherSpec extends AnyFunSuite {
     * frames mixing noisy copies (0..40 bits flipped), exact copies (ties between live features) and unrelated ones. */
   def scenario(rng: Random, nKey: Int, liveFrames: Int, nLive: Int, keyAgainAt: Int = -1): Seq[Either[FrameEnd, Feature]] = {
     def randomDesc = Vector.fill(32)(rng.nextInt(256))
-    def feature(d: Vector[Int]) = Feature(rng.nextInt(128), rng.nextInt(128), rng.nextInt(512), rng.nextInt(1 << 20), d)
+    def feature(d: Vector[Int]) = Feature(rng.nextInt(128), rng.nextInt(128), rng.nextInt(512), 1000L * rng.nextInt(8), d) // scores tie often
     val out = ArrayBuffer[Either[FrameEnd, Feature]]()
     // A quarter of the keyframe repeats earlier descriptors: ties between entries.
     def keyframe(n: Int) = { val base = Vector.fill(n - n / 4)(randomDesc); base ++ Vector.fill(n / 4)(base(rng.nextInt(base.size))) }
@@ -148,9 +148,26 @@ class MatcherSpec extends AnyFunSuite {
     check("cross+ratio", stream, MatchParams(hammingThreshold = 256, ratio = Some(230), crossCheck = true))
     check("threshold 0", stream, MatchParams(hammingThreshold = 0, crossCheck = true))
   }
-  test("store overflow: the first 16 are kept, the rest counted; a new keyframe replaces the store") {
-    val (model, _) = check("overflow", scenario(rng("overflow"), 23, 3, 12, keyAgainAt = 1), plain)
-    assert(model.overflow == 7)
+  test("store overflow: the strongest 16 are kept (the earliest of equal scores), the rest counted; a new keyframe replaces the store") {
+    // Cross-check emits in store order, so the content and the order of the store are both visible.
+    val stream = scenario(rng("overflow"), 40, 3, 24, keyAgainAt = 1)
+    val (model, _) = check("overflow", stream, MatchParams(hammingThreshold = 100, crossCheck = true))
+    assert(model.overflow == 24 + 4 && model.correspondences.size > 10)
+    check("overflow, threshold only", stream, plain)
+  }
+  test("replacement picks the weakest entry, the first of equal scores, wherever it lies in a group") {
+    val r = rng("replace")
+    def desc = Vector.fill(32)(r.nextInt(256))
+    // Scores: four tied weakest entries, in lanes 0..3 of one group, then in the last group; then stronger ones.
+    for ((weakAt, name) <- Seq((0 until 4, "group 0"), (12 until 16, "last group"), (Seq(2, 7, 9, 13), "spread"))) {
+      val key = (0 until 16).map(i => Feature(i, 0, 0, if (weakAt.contains(i)) 1 else 10, desc)) ++
+        (16 until 19).map(i => Feature(i, 0, 0, 20, desc))
+      val live = key.map(k => k.copy(x = k.x + 100, y = 5))
+      val stream = key.map(Right(_)) ++ Seq(Left(FrameEnd(ok = true, keyframe = true))) ++ live.map(Right(_)) ++
+        Seq(Left(FrameEnd(ok = true, keyframe = false)))
+      val (model, _) = check(s"replacement, weakest in $name", stream, MatchParams(hammingThreshold = 10, crossCheck = true))
+      assert(model.store.features.map(_.x) == (0 until 16).map(i => if (weakAt.take(3).contains(i)) 16 + weakAt.indexOf(i) else i))
+    }
   }
   test("empty store: no correspondence, no hang; a single entry has no second best") {
     val rng0 = rng("empty")

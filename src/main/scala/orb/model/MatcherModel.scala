@@ -14,8 +14,8 @@ final case class MatchParams(hammingThreshold: Int = 64, ratio: Option[Int] = No
 
 /** Model of the keyframe store and the brute-force Hamming matcher (the specification the hardware will follow).
   *
-  *  - Store: a keyframe's features in the order they arrive (raster order); the first `storeCapacity` are kept,
-  *    the others counted as overflow.
+  *  - Store: a keyframe's strongest `storeCapacity` features (see `store`); every feature beyond the capacity is
+  *    counted as overflow.
   *  - For each live feature: the best store entry (smallest distance, the first in store order on ties) and the
   *    second-best distance (the smallest over every other entry, so equal to the best on a tie; 257 when the store
   *    has one entry). Accepted when best <= threshold and, if enabled, best * 2^F < ratio * second.
@@ -28,8 +28,20 @@ final case class MatchParams(hammingThreshold: Int = 64, ratio: Option[Int] = No
 object MatcherModel {
   final case class Store(features: IndexedSeq[Feature], overflow: Int)
 
-  def store(keyframe: Seq[Feature], cfg: MatcherConfig): Store =
-    Store(keyframe.take(cfg.storeCapacity).toIndexedSeq, (keyframe.size - cfg.storeCapacity) max 0)
+  /** The keyframe's features in arrival order until the store is full; then each feature with a higher score than
+    * the weakest entry (the lowest score, the first on ties) takes that entry's place. So the store ends with the
+    * strongest features of the whole keyframe, spread over the image rather than its first rows. */
+  def store(keyframe: Seq[Feature], cfg: MatcherConfig): Store = {
+    val kept = scala.collection.mutable.ArrayBuffer[Feature]()
+    for (f <- keyframe) {
+      if (kept.size < cfg.storeCapacity) kept += f
+      else {
+        val weakest = kept.indices.minBy(i => (kept(i).score, i))
+        if (f.score > kept(weakest).score) kept(weakest) = f
+      }
+    }
+    Store(kept.toIndexedSeq, (keyframe.size - cfg.storeCapacity) max 0)
+  }
 
   def distance(a: Feature, b: Feature): Int = a.descriptor.zip(b.descriptor).map { case (p, q) => Integer.bitCount(p ^ q) }.sum
 
