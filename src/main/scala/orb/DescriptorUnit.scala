@@ -30,7 +30,9 @@ case class OrbFeature(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) e
   * y' = round(x sin + y cos), half to even), read in the same clock from their row RAMs, compared; a test whose two
   * points share a row takes two clocks. Corners
   * are handed to the engines in turn and their features collected in the same turn, so they leave in raster
-  * order. A full output FIFO drops (and counts) a feature rather than stalling the camera. */
+  * order. A consumer that waits holds the collection (two register stages, no FIFO RAM): the engines keep their
+  * results, corners wait in the ready queue, and only a corner whose rows are overwritten before an engine takes it
+  * is dropped (counted). The camera never waits. */
 class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) extends Component {
   import OrbDescriptorConfig.sampleReach
   val io = new Bundle {
@@ -184,7 +186,9 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
     engines(1).readData(r) := ram.readSync(e1.address, e1.enable)
   }
 
-  val output = StreamFifo(OrbFeature(f, h, d), 16)
+  // Two register stages to the output (no RAM): a consumer that waits holds the collection, then the engines,
+  // then the dispatch; corners queue meanwhile and are dropped only when their rows run out.
+  val output = Stream(OrbFeature(f, h, d))
 
   // Handing corners to the engines in turn.
   val dispatch = new Area {
@@ -198,7 +202,7 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
     val engineFree = Vec(engines.map(e => !e.busy && !e.done))(next)
     // A frame end leaves when every corner before it has: both engines idle and collected.
     val marker = head.valid && head.frameEnd && engines.map(e => !e.busy && !e.done).andR
-    head.ready := (due && (engineFree || late || !dataOk)) || (marker && output.io.push.ready)
+    head.ready := (due && (engineFree || late || !dataOk)) || (marker && output.ready)
     val start = due && engineFree && !late && dataOk
     val refused = head.fire && !start && !head.frameEnd
     for ((e, i) <- engines.zipWithIndex) when(start && next === i) {
@@ -225,26 +229,25 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
     val drop = Vec(engines.map(_.drop))(next)
     val sel = engines.map(_.corner)
     val corner = Vec(sel)(next)
-    output.io.push.valid := (e && !drop) || dispatch.marker
-    output.io.push.frameEnd := dispatch.marker
-    output.io.push.end := dispatch.head.end
-    output.io.push.x := corner.corner.x
-    output.io.push.y := corner.corner.y
-    output.io.push.bin := corner.bin
-    output.io.push.keyframe := Mux(dispatch.marker, dispatch.head.end.keyframe, corner.keyframe)
-    output.io.push.score := corner.corner.score
-    output.io.push.descriptor := Vec(engines.map(_.descriptor))(next)
-    val outputDrop = e && !drop && !output.io.push.ready
+    output.valid := (e && !drop) || dispatch.marker
+    output.frameEnd := dispatch.marker
+    output.end := dispatch.head.end
+    output.x := corner.corner.x
+    output.y := corner.corner.y
+    output.bin := corner.bin
+    output.keyframe := Mux(dispatch.marker, dispatch.head.end.keyframe, corner.keyframe)
+    output.score := corner.corner.score
+    output.descriptor := Vec(engines.map(_.descriptor))(next)
     val engineDrop = e && drop
-    when(e) {
+    when(e && (drop || output.ready)) {
       next := next + 1
       for ((en, i) <- engines.zipWithIndex) when(next === i) { en.done := False }
     }
-    io.features << output.io.pop
+    io.features << output.s2mPipe().m2sPipe()
   }
 
   val drops = Reg(UInt(f.counterWidth bits)) init 0
   drops := drops + U(queueDrop).resize(f.counterWidth) + U(dispatch.refused).resize(f.counterWidth) +
-    U(collect.outputDrop).resize(f.counterWidth) + U(collect.engineDrop).resize(f.counterWidth)
+    U(collect.engineDrop).resize(f.counterWidth)
   io.dropped := drops
 }

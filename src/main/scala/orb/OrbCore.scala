@@ -5,7 +5,7 @@ import spinal.lib._
 
 case class CoreStatus(c: FrameConfig) extends Bundle {
   val frames, badFrames, badLines, corners, features = UInt(c.counterWidth bits)
-  /** corners that got no descriptor: no orientation slot, a full queue, no engine in time, a full output FIFO, or
+  /** corners that got no descriptor: no orientation slot, a full queue, no engine in time (also when the consumer holds the output), or
     * a fault in their frame before their rows were complete */
   val featureDrops = UInt(c.counterWidth bits)
 }
@@ -17,7 +17,8 @@ case class CoreStatus(c: FrameConfig) extends Bundle {
   *                                                                        +-> Smoother -> DescriptorUnit -> features
   *
   * Never stalls the camera: every stage advances with valid pixels, blanking of any length (also none) passes
-  * through; only the feature output is a Stream, behind a FIFO, and what cannot wait is dropped and counted. */
+  * through; only the feature output is a Stream; a consumer that waits holds the descriptor engines, and a corner that
+  * cannot wait for its engine any longer is dropped and counted. */
 class OrbCore(val cfg: OrbConfig = OrbConfig.default) extends Component {
   val io = new Bundle {
     val pixels = slave Flow (PixelBeat())

@@ -7,10 +7,11 @@ import spinal.lib.bus.avalon._
 /** The complete core: camera pixels in, correspondences out, parameters and counters on Avalon-MM.
   *
   * pixels -> OrbCore (Harris, orientation, BRIEF) -> feature Stream -> Matcher (keyframe store, Hamming scan)
-  *        -> correspondence Stream (behind a FIFO; what finds it full is dropped and counted)
+  *        -> correspondence Stream (behind a FIFO; see `Matcher` for slow and stalled consumers)
   *
-  * The camera is never stalled: the matcher holds the feature stream while it scans, the feature FIFO absorbs
-  * bursts, and a feature that finds it full is dropped and counted (`FEATURE_DROPS`). */
+  * The camera is never stalled: the matcher holds the feature stream while it scans, which holds the descriptor
+  * engines; corners wait in the descriptor unit's queue, and one whose rows are gone before an engine takes it is
+  * dropped and counted (`FEATURE_DROPS`). */
 class OrbTop(val cfg: OrbConfig = OrbConfig.default) extends Component {
   val io = new Bundle {
     val pixels = slave Flow (PixelBeat())
