@@ -67,6 +67,8 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
     val mutual = Bool()
     val liveX, liveY = UInt(cw bits)
   }
+  /** entry index -> group (the RAM address of its lane), as a slice: plain Verilog without width warnings */
+  def groupOf(index: UInt, width: Int): UInt = (if (P == 1) index else index(index.high downto log2Up(P))).resize(width)
   def pick[T <: Data](v: Seq[T], lane: UInt): T = if (P == 1) v.head else Vec(v)(lane.resize(log2Up(P)))
   def clearedCross: Cross = { val c = Cross(); c.distance := none; c.mutual := False; c.liveX := 0; c.liveY := 0; c }
 
@@ -92,7 +94,7 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
 
   val stored = Reg(UInt(countWidth bits)) init 0
   val storedNow = Mux(frame.first && isKey, U(0, countWidth bits), stored)
-  val groups = ((stored +^ (P - 1)) >> log2Up(P)).resize(groupWidth + 1)
+  val groups = groupOf(stored +^ (P - 1), groupWidth + 1)
 
   val lanes = for (l <- 0 until P) yield new Area {
     val store = Mem(Entry(), m.groups)
@@ -117,7 +119,7 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
     val index = Mux(room, storedNow, weakest.index)
     val entry = Entry(); entry.x := item.x; entry.y := item.y; entry.descriptor := item.descriptor
     val lane = index.resize(log2Up(P) max 1)
-    val addr = (index >> log2Up(P)).resize(groupWidth)
+    val addr = groupOf(index, groupWidth)
     val overflow = keyFeature && !room
     when(item.fire && frame.first && isKey) { stored := 0 }
     when(keyFeature && room) {
@@ -185,7 +187,7 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
     when(busy && entry >= stored) { busy := False }
     when(item.fire && item.frameEnd && !frame.keyNow) { busy := True; entry := 0 }
     val lane = entry.resize(log2Up(P) max 1)
-    val addr = (entry >> log2Up(P)).resize(groupWidth)
+    val addr = groupOf(entry, groupWidth)
   }
 
   /** Clocks from a group's read to its merged result (RAM read, popcount stages, compare, merge). */
@@ -262,7 +264,7 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
     val emit = accepted && !p.crossCheck
     when(done || emptyDone) { scan.busy := False }
     val markLane = a.best.index.resize(log2Up(P) max 1)
-    val markAddr = (a.best.index >> log2Up(P)).resize(groupWidth)
+    val markAddr = groupOf(a.best.index, groupWidth)
     val markValue = Cross(); markValue.distance := a.best.distance; markValue.mutual := True
     markValue.liveX := scan.live.x; markValue.liveY := scan.live.y
   }

@@ -90,14 +90,4 @@ class GenerateSpec extends AnyFunSuite {
     assert(rams.exists(_.name == "\\window_ram") && rams.exists(_.name == "\\suppress_scores_ram"))
     assert(rams.filter(m => m.name == "\\window_ram" || m.name.startsWith("\\store_")).forall(_.depth == config.maxWidth), "depth = maxWidth")
   }
-
-  test("Yosys reads (Verilog-2005 parser) and synthesizes the core (memories kept as RAM cells, logic to LUT4)") {
-    val script = s"read_verilog ${verilog.getPath}; hierarchy -check -top OrbTop; proc; opt -fast; memory -nomap; opt -fast; " +
-      "wreduce; alumacc; opt -fast; techmap; opt -fast; abc -lut 4; opt_clean; check -assert; stat"
-    val (status, out) = tool(Seq("yosys", "-q", "-p", script, "-l", "target/generate-test/yosys.log"))
-    assert(status == 0, out.takeRight(3000))
-    val log = scala.io.Source.fromFile("target/generate-test/yosys.log").getLines().toSeq
-    val cells = log.filter(_.contains("Number of cells")).lastOption.getOrElse("?")
-    println(s"[orb] yosys generic synthesis of OrbTop: ${cells.trim}")
-  }
 }
