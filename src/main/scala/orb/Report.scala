@@ -225,15 +225,18 @@ object Report {
     val blockTimes = if (o.timing && o.blockTiming) instances.map { case (n, c) => n -> timing(dir, verilog, c.definitionName, o.minutes) } else Nil
     val m4k = mems.map(_.m4k).sum
     def num(d: Double) = if (d.isNaN) "null" else if (d == d.floor) f"$d%.0f" else f"$d%.1f"
-    def blockJson(c: Cells, mk: Int) =
-      s"""{"les": ${c.les}, "luts": ${c.luts}, "carry_les": ${c.carry}, "ffs": ${c.ffs}, "m4k": $mk, "multipliers": ${num(c.mul18)}}"""
+    /** a block's Fmax: its own place and route (--block-timing), else null */
+    def blockFmax(n: String) = blockTimes.find(_._1 == n).map(_._2.fmaxMhz).filterNot(_.isNaN).fold("null")(v => f"$v%.2f")
+    def blockJson(n: String, c: Cells, mk: Int) =
+      s"""{"les": ${c.les}, "luts": ${c.luts}, "carry_les": ${c.carry}, "ffs": ${c.ffs}, "m4k": $mk, "multipliers": ${num(c.mul18)}, """ +
+        s""""fmax_mhz": ${blockFmax(n)}, "pixels_per_clock": 1}"""
     val json = new StringBuilder
     json ++= "{\n"
     json ++= s"""  "config": "${o.configName}", "device": "${Device.name}", "max_width": ${cfg.maxWidth},\n"""
     json ++= s"""  "les": ${all.les}, "luts": ${all.luts}, "carry_les": ${all.carry}, "ffs": ${all.ffs}, "m4k": $m4k, "multipliers": ${num(all.mul18)},\n"""
     json ++= s"""  "fmax_mhz": ${t.fold("null")(x => if (x.fmaxMhz.isNaN) "null" else f"${x.fmaxMhz}%.2f")}, "fmax_routed": ${t.fold("null")(_.routed.toString)}, "pixels_per_clock": 1,\n"""
     json ++= s"""  "percent": {"les": ${f"${pct(all.les, Device.les)}%.1f"}, "m4k": ${f"${pct(m4k, Device.m4k)}%.1f"}, "multipliers": ${f"${pct(all.mul18, Device.multipliers)}%.1f"}},\n"""
-    json ++= "  \"blocks\": {\n" + blocks.map { case (n, c) => s"""    "$n": ${blockJson(c, m4kOf(n))}""" }.mkString(",\n") + "\n  },\n"
+    json ++= "  \"blocks\": {\n" + blocks.map { case (n, c) => s"""    "$n": ${blockJson(n, c, m4kOf(n))}""" }.mkString(",\n") + "\n  },\n"
     json ++= "  \"memories\": [\n" + mems.map(m => s"""    {"block": "${m.block}", "name": "${m.name}", "depth": ${m.depth}, "width": ${m.width}, "rom": ${m.rom}, "m4k": ${m.m4k}, "shape": "${m.shape._1}x${m.shape._2}"}""").mkString(",\n") + "\n  ],\n"
     def mhz(v: Double) = if (v.isNaN) "null" else f"$v%.2f"
     def timingJson(x: Timing) = s"""{"module": "${x.module}", "fmax_mhz": ${mhz(x.fmaxMhz)}, "routed": ${x.routed}, """ +
