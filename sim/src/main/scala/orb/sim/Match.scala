@@ -244,6 +244,10 @@ object Match {
       "live" -> Seq("path" -> o.live, "width" -> live.width, "height" -> live.height, "features" -> liveFeatures.size),
       "params" -> Seq("harris_threshold" -> o.threshold, "hamming" -> o.params.hammingThreshold,
         "ratio" -> o.params.ratio.map(r => r.toDouble / (1 << cfg.matcher.ratioFracBits)), "cross_check" -> o.params.crossCheck),
+      // The stream sent (SystemModel.pairBeats): the counters count its teaching frames too.
+      "stream" -> (if (key.width == live.width && key.height == live.height)
+        "3 frames: uniform (teaches the geometry), keyframe, live"
+      else "5 frames: uniform, keyframe, uniform of the live size (a counted bad frame: its lines are too long or short), uniform, live"),
       "counters" -> outcome.counters,
       "correspondences" -> outcome.correspondences.size,
       "cycles" -> outcome.cycles, "pixels" -> outcome.pixels,
