@@ -82,10 +82,9 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
     val params = Reg(MatchParamsHw(m))
     params.hammingThreshold init m.defaultHammingThreshold
     params.ratio init m.defaultRatio
-    params.ratioTest init False
-    params.crossCheck init False
+    params.ratioTest init Bool(m.defaultRatioTest)
+    params.crossCheck init Bool(m.defaultCrossCheck)
     val keyNow = Mux(first, isKey, key)
-    val paramsNow = Mux(first, io.params, params)
     when(item.fire) {
       first := item.frameEnd
       when(first) { key := isKey; params := io.params }
