@@ -25,10 +25,12 @@ case class OrbFeature(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) e
   * `slackRows` row starts before its oldest row is overwritten, and is dropped (counted) if it is not done by then.
   *
   * Engines: two, in parallel; engine 0 reads every row RAM through its read/write port (never on the row being
-  * written), engine 1 through the second port. An engine evaluates two tests per clock when their four points lie
-  * in four different rows, else one: points rotated on the fly with the bin's cos/sin (x' = round(x cos - y sin),
-  * y' = round(x sin + y cos), half to even), read in the same clock from their row RAMs, compared; a test whose two
-  * points share a row takes two clocks. Corners
+  * written), engine 1 through the second port. The 256 tests go in pairs (2k, 2k + 1) through a pipeline that
+  * rotates their points with the bin's cos/sin (x' = round(x cos - y sin), y' = round(x sin + y cos), half to even)
+  * and decodes their rows; a pair whose four points lie in four different rows is read in one clock, otherwise its
+  * tests go one at a time, and a test whose two points share a row takes two clocks. The read data pass a register
+  * after the row selection before they are compared, so no path crosses both the 45-row decode and the compare.
+  * Corners
   * are handed to the engines in turn and their features collected in the same turn, so they leave in raster
   * order. A consumer that waits holds the collection (two register stages, no FIFO RAM): the engines keep their
   * results, corners wait in the ready queue, and only a corner whose rows are overwritten before an engine takes it
@@ -89,19 +91,15 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
     val (c, s) = orb.model.OrbModel.cosSin(b, d)
     S(c, csWidth bits) ## S(s, csWidth bits)
   })
-  val pattern = Vec(tests.map(t => Seq(t.x1, t.y1, t.x2, t.y2).map(v => S(v, 5 bits).asBits).reduce(_ ## _)))
 
-  /** x cos - y sin and x sin + y cos, each rounded half to even (OpenCV's cvRound). */
-  def rotate(x: SInt, y: SInt, c: SInt, s: SInt): (SInt, SInt) = {
-    def round(v: SInt): SInt = {
-      val fb = d.rotationFracBits
-      val q = floorShift(v, fb)
-      val r = v(fb - 1 downto 0).asUInt
-      val half = U(BigInt(1) << (fb - 1), fb bits)
-      val up = r > half || (r === half && q.lsb)
-      (q + Mux(up, S(1, q.getWidth bits), S(0, q.getWidth bits))).resize(coordWidth)
-    }
-    (round(x * c - y * s), round(x * s + y * c))
+  /** v / 2^rotationFracBits rounded half to even (OpenCV's cvRound), as a rotated offset. */
+  def roundOffset(v: SInt): SInt = {
+    val fb = d.rotationFracBits
+    val q = floorShift(v, fb)
+    val r = v(fb - 1 downto 0).asUInt
+    val half = U(BigInt(1) << (fb - 1), fb bits)
+    val up = r > half || (r === half && q.lsb)
+    (q + Mux(up, S(1, q.getWidth bits), S(0, q.getWidth bits))).resize(coordWidth)
   }
 
   case class EnginePort() extends Bundle {
@@ -109,67 +107,130 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
     val address = UInt(addrWidth bits)
   }
 
+  // The engine's front end: the 128 test pairs (2k, 2k+1) flow through a pipeline that rotates their four points
+  // (a1, a2, b1, b2) and turns them into row RAMs (one-hot) and columns; it depends on nothing read, so it can be
+  // as deep as timing wants. Its stages, one register each:
+  val productWidth = 5 + csWidth
+  case class PairIndex() extends Bundle { val k = UInt(7 bits) }
+  case class PairPattern() extends Bundle { val p = Vec(SInt(5 bits), 8) } // x1 y1 x2 y2 of test 2k, then of 2k+1
+  case class PairProducts() extends Bundle { val xc, ys, xs, yc = Vec(SInt(productWidth bits), 4) }
+  case class PairRotated() extends Bundle { val rx, ry = Vec(SInt(coordWidth bits), 4) }
+  case class PairReads() extends Bundle {
+    val row = Vec(Bits(rows bits), 4)
+    val col = Vec(UInt(addrWidth bits), 4)
+    val sameA, sameB, dual = Bool()
+  }
+  val pairPatterns = Vec((0 until 128).map { k =>
+    val ts = Seq(tests(2 * k), tests(2 * k + 1))
+    ts.flatMap(t => Seq(t.x1, t.y1, t.x2, t.y2)).map(v => S(v, 5 bits).asBits).reduce(_ ## _)
+  })
+
   val engines = for (e <- 0 until 2) yield new Area {
     val busy, done, drop = Reg(Bool()) init False
     val corner = Reg(OrientedCorner(f, h, d))
     val base = Reg(UInt(slotWidth bits))
     val rowsLeft = Reg(UInt(log2Up(d.slackRows + 1) bits))
-    val t = Reg(UInt(9 bits))
-    val secondRead = Reg(Bool()) init False
     val bits = Reg(UInt(9 bits))
     val descriptor = Reg(Bits(256 bits))
     val cs = Reg(Bits(2 * csWidth bits))
-
-    // This clock's tests: t (a) and t + 1 (b). Both go in the same clock when their four points lie in four
-    // different rows; a test whose two points share a row goes alone, in two clocks.
     val c = cs(csWidth, csWidth bits).asSInt; val s = cs(0, csWidth bits).asSInt
-    def slotOf(ry: SInt): UInt = wrap(base +^ (ry.resize(coordWidth + 1) + sampleReach).asUInt.resize(slotWidth + 1))
-    def colOf(rx: SInt): UInt = (corner.corner.x.intoSInt + rx).asUInt.resize(addrWidth)
-    case class Points(index: UInt) {
-      val p = pattern(index.resize(8))
-      val Seq(x1, y1, x2, y2) = (0 until 4).map(i => p((3 - i) * 5, 5 bits).asSInt)
-      val (rx1, ry1) = rotate(x1, y1, c, s)
-      val (rx2, ry2) = rotate(x2, y2, c, s)
-      val slot1 = slotOf(ry1); val slot2 = slotOf(ry2)
-      val col1 = colOf(rx1); val col2 = colOf(rx2)
-      val sameRow = ry1 === ry2
+    val restart = False.allowOverride() // a corner starts or is given up: empty the front end
+
+    val fetch = new Area {
+      val k = Reg(UInt(8 bits))
+      val pairs = Stream(PairIndex())
+      pairs.valid := busy && !k.msb
+      pairs.k := k.resize(7)
+      when(pairs.fire) { k := k + 1 }
     }
-    val a = Points(t)
-    val b = Points(t + 1)
-    val running = busy && t =/= 256
-    val distinct = Seq(a.slot1, a.slot2, b.slot1, b.slot2).combinations(2).map { case Seq(u, v) => u =/= v }.reduce(_ && _)
-    val dual = running && !a.sameRow && !b.sameRow && t =/= 255 && distinct
-    val readA1 = running && (!a.sameRow || !secondRead)
-    val readA2 = running && (!a.sameRow || secondRead)
+    val pattern = fetch.pairs.m2sPipe(flush = restart).map { i =>
+      val o = PairPattern(); val bitsOf = pairPatterns(i.k)
+      for (j <- 0 until 8) o.p(j) := bitsOf((7 - j) * 5, 5 bits).asSInt
+      o
+    }
+    val products = pattern.m2sPipe(flush = restart).map { q =>
+      val o = PairProducts()
+      for (pt <- 0 until 4) {
+        val x = q.p(2 * pt); val y = q.p(2 * pt + 1)
+        o.xc(pt) := x * c; o.ys(pt) := y * s; o.xs(pt) := x * s; o.yc(pt) := y * c
+      }
+      o
+    }
+    // x' = round(x cos - y sin), y' = round(x sin + y cos)
+    val rotated = products.m2sPipe(flush = restart).map { q =>
+      val o = PairRotated()
+      for (pt <- 0 until 4) {
+        o.rx(pt) := roundOffset(q.xc(pt).resize(productWidth + 1) - q.ys(pt))
+        o.ry(pt) := roundOffset(q.xs(pt).resize(productWidth + 1) + q.yc(pt))
+      }
+      o
+    }
+    // Rows are distinct iff the offsets are (the ring holds more than the 37 rows of a patch).
+    val reads = rotated.m2sPipe(flush = restart).map { q =>
+      val o = PairReads()
+      for (pt <- 0 until 4) {
+        val v = base.resize(slotWidth + 1) + (q.ry(pt).resize(coordWidth + 1) + sampleReach).asUInt.resize(slotWidth + 1)
+        o.row(pt) := B((0 until rows).map(r => v === r || v === r + rows))
+        o.col(pt) := (corner.corner.x.intoSInt + q.rx(pt)).asUInt.resize(addrWidth)
+      }
+      o.sameA := q.ry(0) === q.ry(1)
+      o.sameB := q.ry(2) === q.ry(3)
+      o.dual := q.ry.toSeq.combinations(2).map { case Seq(u, v) => u =/= v }.reduce(_ && _)
+      o
+    }.m2sPipe(flush = restart).s2mPipe(flush = restart)
+
+    // Issue: a pair whose four points lie in four rows takes one clock; otherwise its tests go one after the
+    // other, and a test whose two points share a row reads them in two clocks.
+    val issue = new Area {
+      val pair = reads
+      val testB = Reg(Bool()) init False
+      val second = Reg(Bool()) init False
+      val go = busy && pair.valid
+      val dual = pair.dual
+      val same = Mux(testB, pair.sameB, pair.sameA)
+      val first = !same || !second
+      val last = !same || second
+      val readA1 = go && (dual || (!testB && first))
+      val readA2 = go && (dual || (!testB && last))
+      val readB1 = go && (dual || (testB && first))
+      val readB2 = go && (dual || (testB && last))
+      pair.ready := go && (dual || (testB && last))
+      when(go) {
+        second := !last
+        when(!dual && last) { testB := !testB }
+      }
+      when(restart) { testB := False; second := False }
+    }
     val ports = Vec(EnginePort(), rows)
     for (r <- 0 until rows) {
-      val hits = Seq((readA1, a.slot1, a.col1), (readA2, a.slot2, a.col2), (dual, b.slot1, b.col1), (dual, b.slot2, b.col2))
-        .map { case (en, slot, col) => (en && slot === r, col) }
+      val hits = Seq(issue.readA1, issue.readA2, issue.readB1, issue.readB2).zipWithIndex
+        .map { case (en, pt) => (en && issue.pair.payload.row(pt)(r), issue.pair.payload.col(pt)) }
       ports(r).enable := hits.map(_._1).orR
-      ports(r).address := hits.reverse.foldLeft(U(0, addrWidth bits)) { case (acc, (hit, col)) => Mux(hit, col, acc) }
+      ports(r).address := hits.map { case (hit, col) => Mux(hit, col, U(0, addrWidth bits)) }.reduceBalancedTree(_ | _)
     }
-    when(running) {
-      when(a.sameRow && !secondRead) { secondRead := True }
-        .otherwise { secondRead := False; t := t + Mux(dual, U(2), U(1)) }
-    }
-    // One clock later: the read data, from the RAMs chosen one clock earlier.
+
+    // One clock later the RAMs' data; a register after the row selection; then the comparisons.
     val readData = Vec(UInt(8 bits), rows)
-    val slotA1D = RegNext(a.slot1); val slotA2D = RegNext(a.slot2)
-    val slotB1D = RegNext(b.slot1); val slotB2D = RegNext(b.slot2)
-    val firstOfPair = RegNext(running && a.sameRow && !secondRead) init False
-    val completes = RegNext(running && (!a.sameRow || secondRead)) init False
-    val dualD = RegNext(dual) init False
-    val pairedD = RegNext(running && a.sameRow) init False
+    val rowsD = RegNext(issue.pair.row)
+    def select(pt: Int): UInt = RegNext((0 until rows).map(r => readData(r) & U(8 bits, default -> rowsD(pt)(r))).reduceBalancedTree(_ | _))
+    def delay2(b: Bool): Bool = RegNext(RegNext(b) init False) init False
+    val v1 = select(0); val v2 = select(1); val v3 = select(2); val v4 = select(3)
+    val holdD = delay2(issue.go && !issue.dual && !issue.last)
+    val completesD = delay2(issue.go && (issue.dual || issue.last))
+    val dualD = delay2(issue.go && issue.dual)
+    val testBD = delay2(issue.testB)
+    val pairedD = delay2(issue.go && !issue.dual && Mux(issue.testB, issue.pair.sameB, issue.pair.sameA))
+    val p1 = Mux(testBD, v3, v1); val p2 = Mux(testBD, v4, v2)
     val held = Reg(UInt(8 bits))
-    when(firstOfPair) { held := readData(slotA1D) }
-    val bitA = Mux(pairedD, held, readData(slotA1D)) < readData(slotA2D)
-    val bitB = readData(slotB1D) < readData(slotB2D)
-    when(busy && completes) {
+    when(holdD) { held := p1 }
+    val bitFirst = Mux(pairedD, held, p1) < p2
+    val bitB = v3 < v4
+    when(busy && completesD) {
       when(dualD) {
-        descriptor := bitB ## bitA ## descriptor(255 downto 2)
+        descriptor := bitB ## (v1 < v2) ## descriptor(255 downto 2)
         bits := bits + 2
       } otherwise {
-        descriptor := bitA ## descriptor(255 downto 1)
+        descriptor := bitFirst ## descriptor(255 downto 1)
         bits := bits + 1
       }
     }
@@ -206,12 +267,12 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
     val start = due && engineFree && !late && dataOk
     val refused = head.fire && !start && !head.frameEnd
     for ((e, i) <- engines.zipWithIndex) when(start && next === i) {
-      e.busy := True; e.drop := False
+      e.busy := True; e.drop := False; e.restart := True
       e.corner := head.payload
       // the newest patch row (cy + 18) is in the slot of raw row cy + 21, `since + 1` rows back
       e.base := wrap(stream.slotNow.resize(slotWidth + 2) + (2 * rows - 1 - span) - since.asUInt.resize(slotWidth + 2))
       e.rowsLeft := (d.slackRows - since.asUInt).resize(e.rowsLeft.getWidth)
-      e.t := 0; e.bits := 0; e.secondRead := False
+      e.fetch.k := 0; e.bits := 0
       e.cs := cosSin(head.bin)
     }
     when(start) { next := next + 1 }
@@ -219,7 +280,7 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
   // A row start overwrites the oldest slot: an engine whose slack runs out gives up its corner.
   for (e <- engines) when(stream.rowStart && e.busy) {
     e.rowsLeft := e.rowsLeft - 1
-    when(e.rowsLeft === 1 && e.bits =/= 256) { e.busy := False; e.done := True; e.drop := True }
+    when(e.rowsLeft === 1 && e.bits =/= 256) { e.busy := False; e.done := True; e.drop := True; e.restart := True }
   }
 
   // Collecting in the same turn keeps raster order.
