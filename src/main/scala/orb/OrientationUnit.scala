@@ -84,6 +84,21 @@ class OrientationUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, c
     }
   }
 
+  // The beat one clock after `sums`: the slots accumulate on it, so that the start decision (queue head against the
+  // stream position, free-slot choice) is registered before it reaches the adders.
+  val beat = new Area {
+    val T = RegNext(sums.T)
+    val TV = RegNext(sums.TV)
+    val valid = RegNext(sums.valid) init False
+    val frameStart = RegNext(sums.frameStart) init False
+    val active = RegNext(sums.active)
+    val keyframe = RegNext(sums.keyframe)
+    val ends = RegNext(sums.ends) init False
+    val end = RegNext(sums.end)
+    val rowNow = RegNext(sums.rowNow)
+    val frameNow = RegNext(sums.frameNow)
+  }
+
   // Slots: a corner starts when the stream is at (cx - R, cy + R) and leaves after (cx + R, cy + R).
   val head = queue.io.pop
   val startHere = sums.valid && head.valid && sums.y === head.y + R && sums.x === head.x - R
@@ -91,67 +106,92 @@ class OrientationUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, c
     val busy = Reg(Bool()) init False
     val corner = Reg(HarrisCorner(f, h))
     val u = Reg(SInt(6 bits))
+    val height = Reg(UInt(log2Up(sums.heights.size) bits)) // the disc height of column u, looked up a clock early
     val acc1 = Reg(UInt(acc1Width bits))
     val acc2 = Reg(UInt(acc2Width bits))
     val m01 = Reg(SInt(momentWidth bits))
   }
-  val free = Vec(slots.map(!_.busy))
+  // Corners start at least two beats apart (no two corners are horizontal neighbours), so a slot chosen on this
+  // clock is busy before the next choice; `startD` covers the clock in between.
+  val startD = Reg(Bool()) init False
+  val chosenD = Reg(Bits(d.orientationSlots bits))
+  val headD = RegNext(head.payload)
+  val free = Vec(slots.zipWithIndex.map { case (slot, i) => !slot.busy && !(startD && chosenD(i)) })
   val chosen = OHMasking.first(free.asBits)
   val startOk = startHere && free.orR
   val slotDrop = startHere && !free.orR
+  startD := startOk; chosenD := chosen
   head.ready := startHere || (head.valid && sums.valid && (sums.y > head.y + R || (sums.y === head.y + R && sums.x > head.x - R)))
   val staleDrop = head.fire && !startHere // its start column went by (a frame ended early, or the queue was late)
   // A new frame: what is still queued or accumulating belongs to a frame that ended before its rows came.
   queue.io.flush := sums.frameStart
-  // (a corner pushed on that very clock is lost with the flush, so it counts too)
-  val flushDrops = Mux(sums.frameStart, queue.io.occupancy.resize(f.counterWidth) +
-    CountOne(slots.map(_.busy)).resize(f.counterWidth) + U(io.corners.valid).resize(f.counterWidth), U(0, f.counterWidth bits))
+  // (a corner pushed on that very clock is lost with the flush, so it counts too; the slots are cleared a clock
+  // later, with the beat, and counted then)
+  val flushDrops = Mux(sums.frameStart, queue.io.occupancy.resize(f.counterWidth) + U(io.corners.valid).resize(f.counterWidth),
+    U(0, f.counterWidth bits)) + Mux(beat.frameStart, CountOne(slots.map(_.busy)).resize(f.counterWidth), U(0, f.counterWidth bits))
 
-  val finishing = Flow(OrientedCorner(f, h, d))
-  finishing.valid := False
-  finishing.payload.assignDontCare()
-  finishing.frameEnd := False
-  for ((slot, i) <- slots.zipWithIndex) {
-    val starting = startOk && chosen(i)
+  /** A finished patch: m10 = 16 a1 - a2 = 15 a1 - a2' (a2' lags a column behind a2) is formed one stage later. */
+  case class Finished() extends Bundle {
+    val oriented = OrientedCorner(f, h, d)
+    val a1 = UInt(acc1Width bits)
+    val a2 = UInt(acc2Width bits)
+  }
+  val heightOfFirst = sums.heights.indexOf(vmax(R))
+  val finishes = for ((slot, i) <- slots.zipWithIndex) yield new Area {
+    val starting = startD && chosenD(i)
     val active = slot.busy || starting
     val uNow = Mux(starting, S(-R, 6 bits), slot.u)
-    val tSel = sums.T(sums.index(uNow))
-    val tvSel = sums.TV(sums.index(uNow))
-    val a1 = Mux(starting, U(0, acc1Width bits), slot.acc1) + tSel.resize(acc1Width)
-    val a2 = Mux(starting, U(0, acc2Width bits), slot.acc2) + a1.resize(acc2Width)
-    val m01 = Mux(starting, S(0, momentWidth bits), slot.m01) + tvSel.resize(momentWidth)
-    when(starting) { slot.corner := head.payload }
-    when(sums.frameStart) {
+    val height = Mux(starting, U(heightOfFirst, slot.height.getWidth bits), slot.height)
+    val a1 = Mux(starting, U(0, acc1Width bits), slot.acc1) + beat.T(height).resize(acc1Width)
+    // the running sum of the columns before this one: a2 without this column's a1, so no adder waits for a1
+    val a2 = Mux(starting, U(0, acc2Width bits), slot.acc2 + slot.acc1.resize(acc2Width))
+    val m01 = Mux(starting, S(0, momentWidth bits), slot.m01) + beat.TV(height).resize(momentWidth)
+    val last = uNow === R
+    when(starting) { slot.corner := headD }
+    when(beat.frameStart) {
       slot.busy := False
-    } elsewhen (sums.valid && active) {
+    } elsewhen (beat.valid && active) {
       slot.acc1 := a1; slot.acc2 := a2; slot.m01 := m01; slot.u := uNow + 1
-      slot.busy := uNow =/= R
-      // The last column completes the patch: emitted only if no fault came before it in the frame.
-      when(uNow === R) {
-        finishing.valid := sums.active
-        finishing.corner := Mux(starting, head.payload, slot.corner)
-        finishing.m10 := ((a1.resize(momentWidth) |<< 4).intoSInt - a2.resize(momentWidth).intoSInt).resize(momentWidth)
-        finishing.m01 := m01
-        // This beat is in row cy + R; the descriptor's 37 smoothed rows are complete when row cy + 22 starts.
-        finishing.startRow := sums.rowNow + (OrbDescriptorConfig.startRowOffset - R)
-        finishing.frameTag := sums.frameNow
-        finishing.keyframe := sums.keyframe
-      }
+      slot.height := sums.index(uNow + 1)
+      slot.busy := !last
     }
+    // The last column completes the patch: emitted only if no fault came before it in the frame.
+    val emit = beat.valid && active && last && !beat.frameStart
+    val out = Finished()
+    out.oriented.corner := Mux(starting, headD, slot.corner)
+    out.oriented.m10.assignDontCare()
+    out.oriented.m01 := m01
+    out.oriented.bin.assignDontCare()
+    // This beat is in row cy + R; the descriptor's 37 smoothed rows are complete when row cy + 22 starts.
+    out.oriented.startRow := beat.rowNow + (OrbDescriptorConfig.startRowOffset - R)
+    out.oriented.frameTag := beat.frameNow
+    out.oriented.keyframe := beat.keyframe
+    out.oriented.frameEnd := False
+    out.oriented.end.assignDontCare()
+    out.a1 := a1; out.a2 := a2
   }
+  // At most one slot finishes per pixel (finishing corners are at distinct x of one row): a one-hot selection.
+  val finishing = Flow(Finished())
+  finishing.valid := finishes.map(_.emit).orR && beat.active
+  finishing.payload := OhMux.or(finishes.map(_.emit), finishes.map(_.out))
   // A frame's end follows its corners: no corner of a good frame finishes on its last pixel (the last corners
   // finish 7 rows earlier), and on a fault no corner finishes (it would be dropped).
-  when(sums.valid && sums.ends) {
+  when(beat.valid && beat.ends) {
     finishing.valid := True
-    finishing.frameEnd := True
-    finishing.end := sums.end
+    finishing.oriented.frameEnd := True
+    finishing.oriented.end := beat.end
   }
-  // At most one slot finishes per pixel: finishing corners are at distinct x of one row.
+  val moments = finishing.stage().map { p =>
+    val o = OrientedCorner(f, h, d)
+    o := p.oriented
+    o.m10.allowOverride() := ((p.a1.resize(momentWidth) |<< 4) - p.a1.resize(momentWidth) - p.a2.resize(momentWidth)).asSInt
+    o
+  }
   val bins = new AngleSearch(f, h, d)
-  bins.io.input << finishing.stage()
+  bins.io.input << moments.stage()
   io.oriented << bins.io.output
 
-  val faultDrop = slots.map(slot => slot.busy && slot.u === R).orR && sums.valid && !sums.frameStart && !sums.active
+  val faultDrop = slots.map(slot => slot.busy && slot.u === R).orR && beat.valid && !beat.frameStart && !beat.active
   val drops = Reg(UInt(f.counterWidth bits)) init 0
   drops := drops + U(queueDrop).resize(f.counterWidth) + U(slotDrop).resize(f.counterWidth) +
     U(staleDrop).resize(f.counterWidth) + U(faultDrop).resize(f.counterWidth) + flushDrops
