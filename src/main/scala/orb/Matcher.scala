@@ -135,18 +135,21 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
     when(issuing) { group := group + 1 }
     when(keyFeatureReplaces) { busy := True; group := 0 }
     def keyFeatureReplaces: Bool = load.keyFeature && load.replace
-    val scores = lanes.map(_.score.readSync(group.resize(groupWidth), issuing))
-    val valid = RegNext(issuing) init False
-    val base = RegNext(group.resize(countWidth) |<< log2Up(P))
+    // Registered three times: the RAM data, the group's lowest, the running lowest; no path holds two of them.
+    val scores = lanes.map(l => RegNext(l.score.readSync(group.resize(groupWidth), issuing)))
+    val read = Delay(issuing, 2, init = False)
+    val base = Delay(group.resize(countWidth) |<< log2Up(P), 2)
+    val first = Delay(issuing && group === 0, 2, init = False)
     // the group's lowest score, the first lane on ties
-    val (low, lane) = scores.zipWithIndex.map { case (v, l) => (v, U(l, countWidth bits)) }
+    val (lowNow, laneNow) = scores.zipWithIndex.map { case (v, l) => (v, U(l, countWidth bits)) }
       .reduceBalancedTree { (a, b) => val takeB = b._1 < a._1; (Mux(takeB, b._1, a._1), Mux(takeB, b._2, a._2)) }
-    val first = RegNext(issuing && group === 0) init False
+    val low = RegNext(lowNow); val index = RegNext(base | laneNow)
+    val valid = RegNext(read) init False; val firstD = RegNext(first) init False
     val accScore = Reg(UInt(h.scoreWidth bits)); val accIndex = Reg(UInt(countWidth bits))
-    val takeNew = first || low < accScore
-    when(valid && takeNew) { accScore := low; accIndex := base | lane }
+    val takeNew = firstD || low < accScore
+    when(valid && takeNew) { accScore := low; accIndex := index }
     // busy until the new weakest is in place, so that the next keyframe feature compares against it
-    val last = RegNext(valid && !issuing) init False
+    val last = RegNext(valid && !read) init False
     when(last) { busy := False; weakest.score := accScore; weakest.index := accIndex }
   }
 
