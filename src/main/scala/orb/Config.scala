@@ -25,11 +25,13 @@ case class FrameConfig(maxWidth: Int = 1024, maxHeight: Int = 2047, coordWidth: 
   *    `>> windowShift` rounded half up. The default 15 keeps the window sums in 17/18 bits, so every product of the
   *    response stage fits one 18x18 multiplier of the target.
   *  - R = Sxx*Syy - Sxy^2 - ((kNum * (Sxx+Syy)^2) >> kShift), exact apart from that floor.
-  *  - score = max(0, R >> scoreShift); with the defaults a positive R >> 2 always fits 32 bits.
+  *  - score = max(0, R >> scoreShift); with the defaults a positive R >> 7 always fits 27 bits. The suppression
+  *    keeps two rows of scores, so every bit costs 2 x maxWidth bits of M4K (27 bits: 12 M4K, 32 bits: 16); a
+  *    score step of 128 units of R is far below any corner's R (over 2^20 at the default threshold).
   *
   * @param defaultThreshold the threshold the tools use: an ideal right-angle corner of 45 grey levels contrast
-  *               scores about 2^18 (the score grows with the 4th power of the contrast: 32 levels ~ 67e3,
-  *               64 levels ~ 1.1e6). The hardware takes the threshold at run time.
+  *               scores about 2^13 (the score grows with the 4th power of the contrast: 32 levels ~ 2.1e3,
+  *               64 levels ~ 34e3). The hardware takes the threshold at run time.
   * @param border no corner closer than this to any image edge; the default 22 leaves the ORB stage a pixel
   *               to spare: the rotated BRIEF tests reach 18 px (18.4 before rounding), plus 3 px for the 7x7
   *               smoothing of the sampled image
@@ -38,9 +40,9 @@ case class HarrisConfig(
     kNum: Int = 41,
     kShift: Int = 10,
     windowShift: Int = 15,
-    scoreShift: Int = 2,
+    scoreShift: Int = 7,
     border: Int = 22,
-    defaultThreshold: Long = 1L << 18
+    defaultThreshold: Long = 1L << 13
 ) {
   import HarrisConfig._
   require(kNum > 0 && kShift >= 0 && kNum < (1 << kShift), "k = kNum / 2^kShift must lie in (0, 1)")
@@ -107,7 +109,7 @@ object HarrisConfig {
   * @param readyQueueDepth  oriented corners waiting for a descriptor engine
   */
 case class OrbDescriptorConfig(angleBins: Int = 512, tanFracBits: Int = 18, rotationFracBits: Int = 16,
-                               orientationSlots: Int = 8, cornerQueueDepth: Int = 512,
+                               orientationSlots: Int = 8, cornerQueueDepth: Int = 256,
                                slackRows: Int = 8, readyQueueDepth: Int = 128) {
   require(angleBins >= 8 && angleBins % 8 == 0, "angleBins must be a multiple of 8")
   require(orientationSlots >= 1 && cornerQueueDepth >= 2 && slackRows >= 1 && readyQueueDepth >= 2)
@@ -138,7 +140,8 @@ object OrbDescriptorConfig {
 /** Keyframe store and Hamming matcher.
   *
   * @param storeCapacity keyframe features kept: the strongest `storeCapacity` of the keyframe by Harris score
-  *                      (the rest are counted); each takes 278 bits (x, y, descriptor) plus its 32-bit score
+  *                      (the rest are counted); each takes 278 bits (x, y, descriptor) and 32 bits of cross-check state,
+  *                      which hold its score while the keyframe loads
   * @param comparators   Hamming distances computed per clock (P): a live feature takes storeCapacity / P clocks
   *                      plus the pipeline latency. The store is P RAMs of storeCapacity / P x 278 bits, so the
   *                      default 512 / 4 = 128 deep fills the M4K's 128 x 36 shape exactly (32 M4K)

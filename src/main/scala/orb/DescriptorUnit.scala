@@ -79,9 +79,18 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
     val writeAddr = (s.pixel.x - OrbDescriptorConfig.blurRadius).resize(addrWidth)
   }
 
-  val ready = StreamFifo(OrientedCorner(f, h, d), d.readyQueueDepth)
+  /** An oriented corner as it waits for an engine: without its moments, which only the bin needed. */
+  case class ReadyCorner() extends Bundle {
+    val corner = HarrisCorner(f, h)
+    val bin = UInt(d.binWidth bits)
+    val startRow = UInt(OrientationUnit.rowCountWidth bits)
+    val frameTag = UInt(OrientationUnit.frameTagWidth bits)
+    val keyframe, frameEnd = Bool()
+    val end = FrameEndInfo()
+  }
+  val ready = StreamFifo(ReadyCorner(), d.readyQueueDepth)
   ready.io.push.valid := io.corners.valid
-  ready.io.push.payload := io.corners.payload
+  ready.io.push.payload.assignSomeByName(io.corners.payload)
   val queueDrop = io.corners.valid && !ready.io.push.ready
 
   val tests = Pattern.tests
@@ -127,7 +136,7 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
 
   val engines = for (e <- 0 until 2) yield new Area {
     val busy, done, drop = Reg(Bool()) init False
-    val corner = Reg(OrientedCorner(f, h, d))
+    val corner = Reg(ReadyCorner())
     val base = Reg(UInt(slotWidth bits))
     val rowsLeft = Reg(UInt(log2Up(d.slackRows + 1) bits))
     val bits = Reg(UInt(9 bits))

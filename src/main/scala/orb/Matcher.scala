@@ -70,6 +70,7 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
   /** entry index -> group (the RAM address of its lane), as a slice: plain Verilog without width warnings */
   def groupOf(index: UInt, width: Int): UInt = (if (P == 1) index else index(index.high downto log2Up(P))).resize(width)
   def pick[T <: Data](v: Seq[T], lane: UInt): T = if (P == 1) v.head else Vec(v)(lane.resize(log2Up(P)))
+  require(h.scoreWidth <= distanceWidth + 1 + 2 * cw, "a score must fit the cross word it borrows while a keyframe loads")
   def clearedCross: Cross = { val c = Cross(); c.distance := none; c.mutual := False; c.liveX := 0; c.liveY := 0; c }
 
   val item = io.features
@@ -97,8 +98,9 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
 
   val lanes = for (l <- 0 until P) yield new Area {
     val store = Mem(Entry(), m.groups)
+    // While a keyframe loads, an entry's cross state is not needed: its word holds the entry's score instead
+    // (what the replacement compares), and the keyframe's end clears them all (no RAM for the scores).
     val cross = Mem(Cross(), m.groups)
-    val score = Mem(UInt(h.scoreWidth bits), m.groups)
   }
 
   // The weakest entry of a full store (lowest score, the first on ties): the one a stronger feature replaces.
@@ -135,22 +137,6 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
     when(issuing) { group := group + 1 }
     when(keyFeatureReplaces) { busy := True; group := 0 }
     def keyFeatureReplaces: Bool = load.keyFeature && load.replace
-    // Registered three times: the RAM data, the group's lowest, the running lowest; no path holds two of them.
-    val scores = lanes.map(l => RegNext(l.score.readSync(group.resize(groupWidth), issuing)))
-    val read = Delay(issuing, 2, init = False)
-    val base = Delay(group.resize(countWidth) |<< log2Up(P), 2)
-    val first = Delay(issuing && group === 0, 2, init = False)
-    // the group's lowest score, the first lane on ties
-    val (lowNow, laneNow) = scores.zipWithIndex.map { case (v, l) => (v, U(l, countWidth bits)) }
-      .reduceBalancedTree { (a, b) => val takeB = b._1 < a._1; (Mux(takeB, b._1, a._1), Mux(takeB, b._2, a._2)) }
-    val low = RegNext(lowNow); val index = RegNext(base | laneNow)
-    val valid = RegNext(read) init False; val firstD = RegNext(first) init False
-    val accScore = Reg(UInt(h.scoreWidth bits)); val accIndex = Reg(UInt(countWidth bits))
-    val takeNew = firstD || low < accScore
-    when(valid && takeNew) { accScore := low; accIndex := index }
-    // busy until the new weakest is in place, so that the next keyframe feature compares against it
-    val last = RegNext(valid && !read) init False
-    when(last) { busy := False; weakest.score := accScore; weakest.index := accIndex }
   }
 
   // Live features: the scan over the store, one group per clock.
@@ -192,6 +178,15 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
     val addr = groupOf(entry, groupWidth)
   }
 
+  // Frame end of a keyframe: the scores in the cross words are replaced by cleared cross state, a group per clock.
+  val keyEnd = new Area {
+    val busy = Reg(Bool()) init False
+    val group = Reg(UInt(groupWidth + 1 bits)) init 0
+    when(busy) { group := group + 1 }
+    when(busy && group === m.groups - 1) { busy := False }
+    when(item.fire && item.frameEnd && frame.keyNow) { busy := True; group := 0 }
+  }
+
   /** Clocks from a group's read to its merged result (RAM read, popcount stages, compare, merge). */
   val popStages = MatcherConfig.popcountStages(m)
   val latency = 1 + popStages + 2
@@ -199,10 +194,30 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
   // The read side of every lane: store and cross state, by the scan or the sweep.
   val reads = for ((lane, l) <- lanes.zipWithIndex) yield new Area {
     val sweepHere = sweep.reading && (if (P == 1) True else sweep.lane === l)
-    val addr = Mux(sweep.busy, sweep.addr, scan.readAddr)
-    val enable = scan.issuing || sweepHere
+    val addr = Mux(rescan.busy, rescan.group.resize(groupWidth), Mux(sweep.busy, sweep.addr, scan.readAddr))
+    val enable = scan.issuing || sweepHere || rescan.issuing
     val entry = lane.store.readSync(addr, enable)
     val cross = lane.cross.readSync(addr, enable)
+  }
+
+  // The rescan's data path: the scores read through the cross port, the lowest (first on ties) of them all.
+  val rescanMin = new Area {
+    // Registered three times: the RAM data, the group's lowest, the running lowest; no path holds two of them.
+    val scores = reads.map(r => RegNext(r.cross.asBits.resize(h.scoreWidth).asUInt))
+    val read = Delay(rescan.issuing, 2, init = False)
+    val base = Delay(rescan.group.resize(countWidth) |<< log2Up(P), 2)
+    val first = Delay(rescan.issuing && rescan.group === 0, 2, init = False)
+    // the group's lowest score, the first lane on ties
+    val (lowNow, laneNow) = scores.zipWithIndex.map { case (v, l) => (v, U(l, countWidth bits)) }
+      .reduceBalancedTree { (a, b) => val takeB = b._1 < a._1; (Mux(takeB, b._1, a._1), Mux(takeB, b._2, a._2)) }
+    val low = RegNext(lowNow); val index = RegNext(base | laneNow)
+    val valid = RegNext(read) init False; val firstD = RegNext(first) init False
+    val accScore = Reg(UInt(h.scoreWidth bits)); val accIndex = Reg(UInt(countWidth bits))
+    val takeNew = firstD || low < accScore
+    when(valid && takeNew) { accScore := low; accIndex := index }
+    // busy until the new weakest is in place, so that the next keyframe feature compares against it
+    val last = RegNext(valid && !read) init False
+    when(last) { rescan.busy := False; weakest.score := accScore; weakest.index := accIndex }
   }
 
   // The compare pipeline, stage by stage, side-band data delayed alongside.
@@ -286,17 +301,18 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
     def here(sel: UInt): Bool = if (P == 1) True else sel === l
     val loadHere = load.write && here(load.lane)
     lane.store.write(load.addr, load.entry, loadHere)
-    lane.score.write(load.addr, item.score, loadHere)
     val c = compare.results(l)
     val markHere = decide.mark && here(decide.markLane)
     val clearHere = swept.valid && here(swept.lane)
+    val scoreWord = Cross(); scoreWord.assignFromBits(item.score.asBits.resize(scoreWord.getBitsWidth))
     lane.cross.write(
-      address = Mux(loadHere, load.addr, Mux(markHere, decide.markAddr, Mux(clearHere, swept.addr, compare.group))),
-      data = Mux(loadHere || clearHere, clearedCross, Mux(markHere, decide.markValue, c.update)),
-      enable = loadHere || markHere || clearHere || c.writeUpdate)
+      address = Mux(loadHere, load.addr, Mux(markHere, decide.markAddr, Mux(clearHere, swept.addr,
+        Mux(keyEnd.busy, keyEnd.group.resize(groupWidth), compare.group)))),
+      data = Mux(loadHere, scoreWord, Mux(clearHere || keyEnd.busy, clearedCross, Mux(markHere, decide.markValue, c.update))),
+      enable = loadHere || markHere || clearHere || keyEnd.busy || c.writeUpdate)
   }
 
-  item.ready := !scan.busy && !sweep.busy && !rescan.busy && paced.itemRoom
+  item.ready := !scan.busy && !sweep.busy && !rescan.busy && !keyEnd.busy && paced.itemRoom
 
   val push = output.io.push
   push.valid := decide.emit || swept.emit
