@@ -87,11 +87,12 @@ class FrameTracker(c: FrameConfig) extends Component {
         lineFaulted := cur.lineFaultedNow || check.lineFault
       }
     }
-    badLines := badLines + U(close.countLine).resize(c.counterWidth) +
-      U(cur.inFrameNow && check.lineFault && !cur.lineFaultedNow).resize(c.counterWidth)
-    badFrames := badFrames + U(close.countFrame).resize(c.counterWidth) +
-      U(cur.inFrameNow && check.first).resize(c.counterWidth)
   }
+  // The fault counters count a clock late: their increments are registered, so no adder waits for the checks.
+  val lineFaults = RegNext(U(fire && close.countLine, 2 bits) + U(fire && cur.inFrameNow && check.lineFault && !cur.lineFaultedNow, 2 bits)) init 0
+  val frameFaults = RegNext(U(fire && close.countFrame, 2 bits) + U(fire && cur.inFrameNow && check.first, 2 bits)) init 0
+  badLines := badLines + lineFaults.resize(c.counterWidth)
+  badFrames := badFrames + frameFaults.resize(c.counterWidth)
 
   io.tracked.valid := RegNext(fire && cur.inFrameNow) init False
   val t = io.tracked.payload

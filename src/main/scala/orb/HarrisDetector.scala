@@ -8,12 +8,14 @@ import Arith._
 /** Where each step of the detector sits in its pipeline (node index); a later node means more registers in
   * between. Steps of one node share a clock; the default puts a register after every adder tree and multiplier. */
 case class HarrisStages(sobel: Int = 0, products: Int = 1, columnPre: Int = 2, columnSum: Int = 3, rowPre: Int = 4,
-                        rowSum: Int = 5, multiply: Int = 6, kTrace: Int = 7, response: Int = 8, suppressRead: Int = 9) {
-  private val order = Seq(sobel, products, columnPre, columnSum, rowPre, rowSum, multiply, kTrace, response, suppressRead)
+                        rowMid: Int = 5, rowSum: Int = 6, multiply: Int = 7, kTrace: Int = 8, response: Int = 9,
+                        suppressRead: Int = 10) {
+  private val order = Seq(sobel, products, columnPre, columnSum, rowPre, rowMid, rowSum, multiply, kTrace, response, suppressRead)
   require(order.head >= 0 && order.zip(order.tail).forall { case (a, b) => b > a },
     "each step needs the previous one's registered result: node indices must strictly increase")
-  /** the window column arrives one node after it is read; the corner leaves one node later */
-  def suppress: Int = suppressRead + 1
+  /** the window column arrives one node after it is read and is registered once more before the comparisons
+    * (a RAM's output is slow); the corner leaves one node later */
+  def suppress: Int = suppressRead + 2
   def output: Int = suppress + 1
   /** clocks from a column at the input to the corner it completes at the output */
   def latency: Int = output
@@ -53,13 +55,16 @@ class HarrisDetector(f: FrameConfig, h: HarrisConfig, columnRows: Int, stages: H
   /** 1 2 1 smoothing of three values. */
   private def w121(a: SInt, b: SInt, c: SInt, width: Int): SInt = (a.resize(width) + (b.resize(width) |<< 1)) + c.resize(width)
 
-  /** Binomial 1 6 15 20 15 6 1 as a symmetric pre-add (at node `pre`) then shifts and adds (at node `sum`). */
-  private def binomial7(values: collection.IndexedSeq[SInt], pre: Node, sum: Node, width: Int): SInt = {
+  /** Binomial 1 6 15 20 15 6 1 as a symmetric pre-add (at node `pre`) then shifts and adds (at node `sum`; with a
+    * `mid` node, the two halves of that sum are registered there). */
+  private def binomial7(values: collection.IndexedSeq[SInt], pre: Node, sum: Node, width: Int, mid: Option[Node] = None): SInt = {
     require(values.size == 7)
     val pairs = pre.insert(Vec(Seq((0, 6), (1, 5), (2, 4)).map { case (i, j) => values(i).resize(width) + values(j).resize(width) } :+
       values(3).resize(width)))
-    val Seq(a, b, c, d) = sum(pairs).toSeq
-    (a + (b |<< 2) + (b |<< 1)) + ((c |<< 4) - c) + ((d |<< 4) + (d |<< 2))
+    val m = mid.getOrElse(sum)
+    val Seq(a, b, c, d) = m(pairs).toSeq
+    val halves = m.insert(Vec(a + (b |<< 2) + (b |<< 1), ((c |<< 4) - c) + ((d |<< 4) + (d |<< 2))))
+    sum(halves)(0) + sum(halves)(1)
   }
 
   // Column index r is r rows above the newest; gradients are taken for the 7 rows centred on indices 1..7,
@@ -96,7 +101,8 @@ class HarrisDetector(f: FrameConfig, h: HarrisConfig, columnRows: Int, stages: H
     val w = h.windowCrossWidth
     // Rounded half up: the floor's bias of half a unit on every window sum would show in det - k tr^2.
     val half = if (h.windowShift == 0) S(0, w bits) else S(BigInt(1) << (h.windowShift - 1), w bits)
-    def window(v: Payload[SInt]): SInt = floorShift(binomial7(lastValid(pre(v), 7, pre.isValid), pre, at(stages.rowSum), w) + half, h.windowShift)
+    def window(v: Payload[SInt]): SInt =
+      floorShift(binomial7(lastValid(pre(v), 7, pre.isValid), pre, at(stages.rowSum), w, Some(at(stages.rowMid))) + half, h.windowShift)
     val SXX = at(stages.rowSum).insert(window(column.VXX).resize(h.sSquareWidth + 1).asUInt.resize(h.sSquareWidth))
     val SYY = at(stages.rowSum).insert(window(column.VYY).resize(h.sSquareWidth + 1).asUInt.resize(h.sSquareWidth))
     val SXY = at(stages.rowSum).insert(window(column.VXY).resize(h.sCrossWidth))
@@ -129,7 +135,7 @@ class HarrisDetector(f: FrameConfig, h: HarrisConfig, columnRows: Int, stages: H
   val suppress = new Area {
     val read = at(stages.suppressRead)
     val scores = new RowWindow(RowWindowConfig(3, f.maxWidth, h.scoreWidth))
-    val WINDOW = at(stages.suppress).insert(scores.column(read.isValid, read(PIXEL).x, read(response.SCORE).asBits))
+    val WINDOW = at(stages.suppressRead + 1).insert(scores.column(read.isValid, read(PIXEL).x, read(response.SCORE).asBits))
     val n = at(stages.suppress)
     val cols = lastValid(Vec(n(WINDOW).map(_.asUInt)), 3, n.isValid) // 0: column x, 1: x-1 (centre), 2: x-2
     // Row 0 is the newest (below the centre), row 2 the oldest (above).

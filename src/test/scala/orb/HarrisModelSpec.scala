@@ -29,7 +29,8 @@ class HarrisModelSpec extends AnyFunSuite {
     def p(v: Long) = new HarrisModel.Plane[Long](1, 1, Array(v))
     assert(HarrisModel.response(p(100), p(80), p(10), cfg)(0, 0) == 100 * 80 - 100 - ((180L * 180 * 41) >> 10))
     assert(HarrisModel.score(p(-5), cfg)(0, 0) == 0)
-    assert(HarrisModel.score(p(1027), cfg)(0, 0) == 256)
+    assert(cfg.scoreShift == 7)
+    assert(HarrisModel.score(p(1027 * 32 + 31), cfg)(0, 0) == 256) // (32895 >> 7) = 256, the floor
   }
 
   test("suppression: a plateau keeps its first pixel in raster order, and only that") {
