@@ -111,16 +111,12 @@ class OrientationUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, c
     val acc2 = Reg(UInt(acc2Width bits))
     val m01 = Reg(SInt(momentWidth bits))
   }
-  // Corners start at least two beats apart (no two corners are horizontal neighbours), so a slot chosen on this
-  // clock is busy before the next choice; `startD` covers the clock in between.
-  val startD = Reg(Bool()) init False
-  val chosenD = Reg(Bits(d.orientationSlots bits))
-  val headD = RegNext(head.payload)
-  val free = Vec(slots.zipWithIndex.map { case (slot, i) => !slot.busy && !(startD && chosenD(i)) })
+  // The start decision, on the registered beat, initialises the chosen slot, which accumulates from the next beat
+  // on: no adder waits for the decision.
+  val free = Vec(slots.map(!_.busy))
   val chosen = OHMasking.first(free.asBits)
   val startOk = startHere && free.orR
   val slotDrop = startHere && !free.orR
-  startD := startOk; chosenD := chosen
   head.ready := startHere || (head.valid && sums.valid && (sums.y > head.y + R || (sums.y === head.y + R && sums.x > head.x - R)))
   val staleDrop = head.fire && !startHere // its start column went by (a frame ended early, or the queue was late)
   // A new frame: what is still queued or accumulating belongs to a frame that ended before its rows came.
@@ -130,56 +126,67 @@ class OrientationUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, c
   val flushDrops = Mux(sums.frameStart, queue.io.occupancy.resize(f.counterWidth) + U(io.corners.valid).resize(f.counterWidth),
     U(0, f.counterWidth bits)) + Mux(beat.frameStart, CountOne(slots.map(_.busy)).resize(f.counterWidth), U(0, f.counterWidth bits))
 
-  /** A finished patch: m10 = 16 a1 - a2 = 15 a1 - a2' (a2' lags a column behind a2) is formed one stage later. */
+  val heightOfFirst = sums.heights.indexOf(vmax(R))
+  val accumulate = for ((slot, i) <- slots.zipWithIndex) yield new Area {
+    when(startOk && chosen(i)) {
+      slot.busy := True; slot.corner := head.payload; slot.u := -R; slot.height := heightOfFirst
+      slot.acc1 := 0; slot.acc2 := 0; slot.m01 := 0
+    }
+    val last = slot.u === R
+    when(beat.frameStart) {
+      slot.busy := False
+    } elsewhen (beat.valid && slot.busy) {
+      slot.acc1 := slot.acc1 + beat.T(slot.height).resize(acc1Width)
+      // the running sum of the columns before this one (a2 lags a column behind): no adder waits for acc1's
+      slot.acc2 := slot.acc2 + slot.acc1.resize(acc2Width)
+      slot.m01 := slot.m01 + beat.TV(slot.height).resize(momentWidth)
+      slot.u := slot.u + 1
+      slot.height := sums.index(slot.u + 1)
+      slot.busy := !last
+    }
+    // The last column completes the patch: emitted (from the registers, a clock later) only if no fault came
+    // before it in the frame.
+    val emit = RegNext(beat.valid && slot.busy && last && !beat.frameStart && beat.active) init False
+  }
+  // The finished patch, a clock after its last column: m10 = 16 a1 - a2 = 15 a1 - a2' (a2' = acc2, a column
+  // behind) is formed in the stage after.
   case class Finished() extends Bundle {
     val oriented = OrientedCorner(f, h, d)
     val a1 = UInt(acc1Width bits)
     val a2 = UInt(acc2Width bits)
   }
-  val heightOfFirst = sums.heights.indexOf(vmax(R))
-  val finishes = for ((slot, i) <- slots.zipWithIndex) yield new Area {
-    val starting = startD && chosenD(i)
-    val active = slot.busy || starting
-    val uNow = Mux(starting, S(-R, 6 bits), slot.u)
-    val height = Mux(starting, U(heightOfFirst, slot.height.getWidth bits), slot.height)
-    val a1 = Mux(starting, U(0, acc1Width bits), slot.acc1) + beat.T(height).resize(acc1Width)
-    // the running sum of the columns before this one: a2 without this column's a1, so no adder waits for a1
-    val a2 = Mux(starting, U(0, acc2Width bits), slot.acc2 + slot.acc1.resize(acc2Width))
-    val m01 = Mux(starting, S(0, momentWidth bits), slot.m01) + beat.TV(height).resize(momentWidth)
-    val last = uNow === R
-    when(starting) { slot.corner := headD }
-    when(beat.frameStart) {
-      slot.busy := False
-    } elsewhen (beat.valid && active) {
-      slot.acc1 := a1; slot.acc2 := a2; slot.m01 := m01; slot.u := uNow + 1
-      slot.height := sums.index(uNow + 1)
-      slot.busy := !last
-    }
-    // The last column completes the patch: emitted only if no fault came before it in the frame.
-    val emit = beat.valid && active && last && !beat.frameStart
-    val out = Finished()
-    out.oriented.corner := Mux(starting, headD, slot.corner)
-    out.oriented.m10.assignDontCare()
-    out.oriented.m01 := m01
-    out.oriented.bin.assignDontCare()
-    // This beat is in row cy + R; the descriptor's 37 smoothed rows are complete when row cy + 22 starts.
-    out.oriented.startRow := beat.rowNow + (OrbDescriptorConfig.startRowOffset - R)
-    out.oriented.frameTag := beat.frameNow
-    out.oriented.keyframe := beat.keyframe
-    out.oriented.frameEnd := False
-    out.oriented.end.assignDontCare()
-    out.a1 := a1; out.a2 := a2
-  }
-  // At most one slot finishes per pixel (finishing corners are at distinct x of one row): a one-hot selection.
   val finishing = Flow(Finished())
-  finishing.valid := finishes.map(_.emit).orR && beat.active
-  finishing.payload := OhMux.or(finishes.map(_.emit), finishes.map(_.out))
+  val emits = accumulate.map(_.emit)
+  val finishedSlot = OhMux.or(emits, slots.map { slot =>
+    val o = Finished()
+    o.oriented.corner := slot.corner
+    o.oriented.m10.assignDontCare(); o.oriented.bin.assignDontCare()
+    o.oriented.m01 := slot.m01
+    o.oriented.startRow.assignDontCare(); o.oriented.frameTag.assignDontCare(); o.oriented.keyframe.assignDontCare()
+    o.oriented.frameEnd := False; o.oriented.end.assignDontCare()
+    o.a1 := slot.acc1; o.a2 := slot.acc2
+    o
+  })
+  val beatD = new Area {
+    // The beat of the last column, in row cy + R; the descriptor's 37 smoothed rows are complete when row cy + 22
+    // starts.
+    val startRow = RegNext(beat.rowNow + (OrbDescriptorConfig.startRowOffset - R))
+    val frameTag = RegNext(beat.frameNow)
+    val keyframe = RegNext(beat.keyframe)
+    val ends = RegNext(beat.valid && beat.ends) init False
+    val end = RegNext(beat.end)
+  }
+  finishing.valid := emits.orR
+  finishing.payload := finishedSlot
+  finishing.oriented.startRow.allowOverride() := beatD.startRow
+  finishing.oriented.frameTag.allowOverride() := beatD.frameTag
+  finishing.oriented.keyframe.allowOverride() := beatD.keyframe
   // A frame's end follows its corners: no corner of a good frame finishes on its last pixel (the last corners
   // finish 7 rows earlier), and on a fault no corner finishes (it would be dropped).
-  when(beat.valid && beat.ends) {
+  when(beatD.ends) {
     finishing.valid := True
     finishing.oriented.frameEnd := True
-    finishing.oriented.end := beat.end
+    finishing.oriented.end := beatD.end
   }
   val moments = finishing.stage().map { p =>
     val o = OrientedCorner(f, h, d)
