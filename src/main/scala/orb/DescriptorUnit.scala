@@ -210,25 +210,31 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
       }
       when(restart) { testB := False; second := False }
     }
-    val ports = Vec(EnginePort(), rows)
+    // The decoded ports are registered beside the RAMs and their data registered on the way out, so the long
+    // wires between the engine and the 45 RAMs start and end at flip-flops.
+    val decoded = Vec(EnginePort(), rows)
+    val ports = RegNext(decoded)
+    ports.foreach(_.enable.init(False))
     for (r <- 0 until rows) {
       val hits = Seq(issue.readA1, issue.readA2, issue.readB1, issue.readB2).zipWithIndex
         .map { case (en, pt) => (en && issue.pair.payload.row(pt)(r), issue.pair.payload.col(pt)) }
-      ports(r).enable := hits.map(_._1).orR
-      ports(r).address := hits.map { case (hit, col) => Mux(hit, col, U(0, addrWidth bits)) }.reduceBalancedTree(_ | _)
+      decoded(r).enable := hits.map(_._1).orR
+      decoded(r).address := hits.map { case (hit, col) => Mux(hit, col, U(0, addrWidth bits)) }.reduceBalancedTree(_ | _)
     }
 
-    // One clock later the RAMs' data; a register after the row selection; then the comparisons.
+    // The RAMs' data, registered, three clocks after the issue; a register after the row selection; then the
+    // comparisons.
     val readData = Vec(UInt(8 bits), rows)
-    val rowsD = RegNext(issue.pair.row)
+    val rowsD = Delay(issue.pair.row, 3)
     def select(pt: Int): UInt = RegNext((0 until rows).map(r => readData(r) & U(8 bits, default -> rowsD(pt)(r))).reduceBalancedTree(_ | _))
-    def delay2(b: Bool): Bool = RegNext(RegNext(b) init False) init False
+    /** `b` four clocks later, when the data it goes with arrive; a restart voids what is in flight */
+    def delayed(b: Bool): Bool = (0 until 4).foldLeft(b)((v, _) => RegNext(v && !restart) init False)
     val v1 = select(0); val v2 = select(1); val v3 = select(2); val v4 = select(3)
-    val holdD = delay2(issue.go && !issue.dual && !issue.last)
-    val completesD = delay2(issue.go && (issue.dual || issue.last))
-    val dualD = delay2(issue.go && issue.dual)
-    val testBD = delay2(issue.testB)
-    val pairedD = delay2(issue.go && !issue.dual && Mux(issue.testB, issue.pair.sameB, issue.pair.sameA))
+    val holdD = delayed(issue.go && !issue.dual && !issue.last)
+    val completesD = delayed(issue.go && (issue.dual || issue.last))
+    val dualD = delayed(issue.go && issue.dual)
+    val testBD = delayed(issue.testB)
+    val pairedD = delayed(issue.go && !issue.dual && Mux(issue.testB, issue.pair.sameB, issue.pair.sameA))
     val p1 = Mux(testBD, v3, v1); val p2 = Mux(testBD, v4, v2)
     val held = Reg(UInt(8 bits))
     when(holdD) { held := p1 }
@@ -251,9 +257,9 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
     val ram = Mem(UInt(8 bits), f.maxWidth)
     val writeHere = stream.write && stream.slotNow === r
     val e0 = engines(0).ports(r); val e1 = engines(1).ports(r)
-    engines(0).readData(r) := ram.readWriteSync(Mux(writeHere, stream.writeAddr, e0.address), io.smoothed.smoothed,
-      writeHere || e0.enable, writeHere)
-    engines(1).readData(r) := ram.readSync(e1.address, e1.enable)
+    engines(0).readData(r) := RegNext(ram.readWriteSync(Mux(writeHere, stream.writeAddr, e0.address), io.smoothed.smoothed,
+      writeHere || e0.enable, writeHere))
+    engines(1).readData(r) := RegNext(ram.readSync(e1.address, e1.enable))
   }
 
   // Two register stages to the output (no RAM): a consumer that waits holds the collection, then the engines,
