@@ -165,7 +165,7 @@ case class MatcherConfig(storeCapacity: Int = 512, comparators: Int = 4, popcoun
   def groups: Int = storeCapacity / comparators
   def ratioWidth: Int = ratioFracBits + 1
   /** clocks a live feature holds the matcher: the scan, the pipeline, one to decide */
-  def clocksPerFeature: Int = groups + 1 + MatcherConfig.popcountStages(this) + 2 + 1
+  def clocksPerFeature: Int = groups + 1 + MatcherConfig.popcountStages(this) + 1 + log2Up(comparators) + 1 + 1
 }
 
 object MatcherConfig {

@@ -189,7 +189,7 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
 
   /** Clocks from a group's read to its merged result (RAM read, popcount stages, compare, merge). */
   val popStages = MatcherConfig.popcountStages(m)
-  val latency = 1 + popStages + 2
+  val latency = 1 + popStages + 1 + log2Up(P) + 1
 
   // The read side of every lane: store and cross state, by the scan or the sweep.
   val reads = for ((lane, l) <- lanes.zipWithIndex) yield new Area {
@@ -259,13 +259,20 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
       r.second := Mux(loser < s, loser, s)
       r
     }
-    val merged = RegNext(results.map(r => single(r.out)).reduceBalancedTree(merge))
-    val mergedValid = RegNext(valid) init False
-    val mergedFirst = RegNext(valid && group === 0) init False
+    // The lanes' results registered, then a register after every level of the merge tree.
+    val outValid = RegNext(valid) init False
+    val outGroup = RegNext(group)
+    var level: Seq[Best] = results.map(r => RegNext(single(r.out)))
+    while (level.size > 1) level = level.grouped(2).map(g => RegNext(merge(g(0), g(1)))).toSeq
+    val merged = level.head
+    val mergeLevels = log2Up(P)
+    val mergedValid = Delay(outValid, mergeLevels, init = False)
+    val mergedGroup = Delay(outGroup, mergeLevels)
+    val mergedFirst = mergedValid && mergedGroup === 0
     val acc = Reg(Best())
     when(mergedValid) { acc := Mux(mergedFirst, merged, merge(acc, merged)) }
     val accValid = RegNext(mergedValid) init False
-    val lastGroup = RegNext(mergedValid && (RegNext(group) === (groups - 1).resize(groupWidth))) init False
+    val lastGroup = RegNext(mergedValid && mergedGroup === (groups - 1).resize(groupWidth)) init False
   }
 
   // A feature's scan is over when its last group has been accumulated: accept or not, then the next feature.

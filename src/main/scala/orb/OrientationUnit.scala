@@ -100,7 +100,8 @@ class OrientationUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, c
   }
 
   // Slots: a corner starts when the stream is at (cx - R, cy + R) and leaves after (cx + R, cy + R).
-  val head = queue.io.pop
+  // The queue's head through a register: a RAM's output is too slow to decide on in the same clock.
+  val head = queue.io.pop.m2sPipe(flush = sums.frameStart)
   val startHere = sums.valid && head.valid && sums.y === head.y + R && sums.x === head.x - R
   val slots = for (s <- 0 until d.orientationSlots) yield new Area {
     val busy = Reg(Bool()) init False
@@ -123,7 +124,8 @@ class OrientationUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, c
   queue.io.flush := sums.frameStart
   // (a corner pushed on that very clock is lost with the flush, so it counts too; the slots are cleared a clock
   // later, with the beat, and counted then)
-  val flushDrops = Mux(sums.frameStart, queue.io.occupancy.resize(f.counterWidth) + U(io.corners.valid).resize(f.counterWidth),
+  val flushDrops = Mux(sums.frameStart, queue.io.occupancy.resize(f.counterWidth) + U(io.corners.valid).resize(f.counterWidth) +
+    U(head.valid).resize(f.counterWidth),
     U(0, f.counterWidth bits)) + Mux(beat.frameStart, CountOne(slots.map(_.busy)).resize(f.counterWidth), U(0, f.counterWidth bits))
 
   val heightOfFirst = sums.heights.indexOf(vmax(R))
