@@ -269,7 +269,7 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
   // Handing corners to the engines in turn.
   val dispatch = new Area {
     val next = Reg(UInt(1 bits)) init 0
-    val head = ready.io.pop
+    val head = ready.io.pop.m2sPipe() // a RAM output is too slow to decide on in the same clock
     val since = (stream.rowNow - head.startRow).asSInt // rows since the patch was complete (negative: not yet)
     val due = head.valid && !head.frameEnd && !since.msb
     val late = since.asUInt >= d.slackRows
