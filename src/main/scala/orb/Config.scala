@@ -164,8 +164,9 @@ case class MatcherConfig(storeCapacity: Int = 512, comparators: Int = 4, popcoun
   require(defaultHammingThreshold >= 0 && defaultHammingThreshold <= 256 && defaultRatio >= 0 && defaultRatio < (2 << ratioFracBits))
   def groups: Int = storeCapacity / comparators
   def ratioWidth: Int = ratioFracBits + 1
-  /** clocks a live feature holds the matcher: the scan, the pipeline, one to decide */
-  def clocksPerFeature: Int = groups + 1 + MatcherConfig.popcountStages(this) + 1 + log2Up(comparators) + 1 + 1
+  /** clocks a live feature holds the matcher: the scan, the RAM read, the popcount, the lane register, the merge
+    * levels, the accumulation, the ratio product, one to decide */
+  def clocksPerFeature: Int = groups + 1 + MatcherConfig.popcountStages(this) + 1 + log2Up(comparators) + 1 + 1 + 1
 }
 
 object MatcherConfig {

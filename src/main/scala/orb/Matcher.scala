@@ -189,7 +189,7 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
 
   /** Clocks from a group's read to its merged result (RAM read, popcount stages, compare, merge). */
   val popStages = MatcherConfig.popcountStages(m)
-  val latency = 1 + popStages + 1 + log2Up(P) + 1
+  val latency = 1 + popStages + 1 + log2Up(P) + 1 + 1
 
   // The read side of every lane: store and cross state, by the scan or the sweep.
   val reads = for ((lane, l) <- lanes.zipWithIndex) yield new Area {
@@ -277,12 +277,13 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
 
   // A feature's scan is over when its last group has been accumulated: accept or not, then the next feature.
   val decide = new Area {
-    val done = compare.lastGroup
+    // A clock after the last group, so that the ratio's product is registered before it is compared.
+    val done = RegNext(compare.lastGroup) init False
     val emptyDone = scan.busy && groups === 0 // an empty store: nothing to scan
     val a = compare.acc
     val p = frame.params
-    val ratioOk = !p.ratioTest || ((a.best.distance << m.ratioFracBits).resize(distanceWidth + m.ratioFracBits + 1) <
-      (p.ratio * a.second).resize(distanceWidth + m.ratioFracBits + 1))
+    val ratioSecond = RegNext((p.ratio * a.second).resize(distanceWidth + m.ratioFracBits + 1))
+    val ratioOk = !p.ratioTest || ((a.best.distance << m.ratioFracBits).resize(distanceWidth + m.ratioFracBits + 1) < ratioSecond)
     val accepted = done && a.best.distance <= p.hammingThreshold && ratioOk
     val mark = accepted && p.crossCheck && a.best.wins
     val emit = accepted && !p.crossCheck

@@ -65,8 +65,15 @@ class MatcherSpec extends AnyFunSuite {
         dut.clockDomain.waitSamplingWhere(in.ready.toBoolean)
         in.valid #= false
       }
-      dut.clockDomain.waitSampling(m.clocksPerFeature + m.storeCapacity + 4 * m.outputDepth + stallFor + 100)
+      // Drain: until every correspondence counted by the matcher has arrived, and then a scan's time more with
+      // nothing new (a bound, so that a lost correspondence fails the comparison instead of hanging the test).
       val s = dut.io.status
+      var waited = 0
+      val bound = 200 * (m.clocksPerFeature + m.storeCapacity + 4 * m.outputDepth) + stallFor
+      while (waited < bound && (s.matches.toLong != got.size || waited < m.clocksPerFeature + m.storeCapacity + stallFor)) {
+        dut.clockDomain.waitSampling(); waited += 1
+      }
+      dut.clockDomain.waitSampling(m.clocksPerFeature + 4 * m.outputDepth)
       out = RtlMatches(got.toSeq, s.stored.toLong, s.storeOverflow.toLong, s.matches.toLong, s.matchDrops.toLong)
     }
     out
