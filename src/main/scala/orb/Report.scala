@@ -235,7 +235,7 @@ object Report {
     json ++= s"""  "config": "${o.configName}", "device": "${Device.name}", "max_width": ${cfg.maxWidth},\n"""
     json ++= s"""  "les": ${all.les}, "luts": ${all.luts}, "carry_les": ${all.carry}, "ffs": ${all.ffs}, "m4k": $m4k, "multipliers": ${num(all.mul18)},\n"""
     json ++= s"""  "fmax_mhz": ${t.fold("null")(x => if (x.fmaxMhz.isNaN) "null" else f"${x.fmaxMhz}%.2f")}, "fmax_routed": ${t.fold("null")(_.routed.toString)}, "pixels_per_clock": 1,\n"""
-    json ++= s"""  "percent": {"les": ${f"${pct(all.les, Device.les)}%.1f"}, "m4k": ${f"${pct(m4k, Device.m4k)}%.1f"}, "multipliers": ${f"${pct(all.mul18, Device.multipliers)}%.1f"}},\n"""
+    json ++= s"""  "percent": {"les": ${f"${pct(all.les.toDouble, Device.les)}%.1f"}, "m4k": ${f"${pct(m4k.toDouble, Device.m4k)}%.1f"}, "multipliers": ${f"${pct(all.mul18, Device.multipliers)}%.1f"}},\n"""
     json ++= "  \"blocks\": {\n" + blocks.map { case (n, c) => s"""    "$n": ${blockJson(n, c, m4kOf(n))}""" }.mkString(",\n") + "\n  },\n"
     json ++= "  \"memories\": [\n" + mems.map(m => s"""    {"block": "${m.block}", "name": "${m.name}", "depth": ${m.depth}, "width": ${m.width}, "rom": ${m.rom}, "m4k": ${m.m4k}, "shape": "${m.shape._1}x${m.shape._2}"}""").mkString(",\n") + "\n  ],\n"
     def mhz(v: Double) = if (v.isNaN) "null" else f"$v%.2f"
@@ -247,11 +247,13 @@ object Report {
 
     val md = new StringBuilder
     md ++= s"# Resource report: OrbTop, config ${o.configName} (maxWidth ${cfg.maxWidth}), target ${Device.name}\n\n"
-    md ++= s"Produced by `./sbt \"runMain orb.Report --out ${o.out} --config ${o.configName}${if (o.timing) "" else " --no-timing"}\"`.\n\n"
+    val flags = (if (o.timing) "" else " --no-timing") + (if (o.timing && o.blockTiming) " --block-timing" else "") +
+      (if (o.timing) s" --timing-minutes ${o.minutes}" else "")
+    md ++= s"Produced by `./sbt \"runMain orb.Report --out ${o.out} --config ${o.configName}$flags\"`.\n\n"
     md ++= "| | LEs (est.) | 4-LUTs | carry LEs | FFs | M4K | 18x18 mult. |\n|---|---:|---:|---:|---:|---:|---:|\n"
     for ((n, c) <- blocks) md ++= s"| $n | ${c.les} | ${c.luts} | ${c.carry} | ${c.ffs} | ${m4kOf(n)} | ${num(c.mul18)} |\n"
     md ++= s"| **total** | **${all.les}** | ${all.luts} | ${all.carry} | ${all.ffs} | **$m4k** | **${num(all.mul18)}** |\n"
-    md ++= f"| EP2C70 | ${Device.les} (${pct(all.les, Device.les)}%.1f%%) | | | | ${Device.m4k} (${pct(m4k, Device.m4k)}%.1f%%) | ${Device.multipliers} (${pct(all.mul18, Device.multipliers)}%.1f%%) |\n\n"
+    md ++= f"| EP2C70 | ${Device.les} (${pct(all.les.toDouble, Device.les)}%.1f%%) | | | | ${Device.m4k} (${pct(m4k.toDouble, Device.m4k)}%.1f%%) | ${Device.multipliers} (${pct(all.mul18, Device.multipliers)}%.1f%%) |\n\n"
     md ++= "LEs: one per LUT and per carry-chain bit, flip-flops packed into them (optimistic). Memories are not in the LUT counts.\n\n"
     md ++= "## Memories\n\n| block | memory | depth x width | kind | M4K | as |\n|---|---|---:|---|---:|---|\n"
     for (m <- mems.sortBy(m => (m.block, m.name))) md ++= s"| ${m.block} | ${m.name} | ${m.depth} x ${m.width} | ${if (m.rom) "ROM" else "RAM"} | ${m.m4k} | ${m.shape._1}x${m.shape._2} |\n"
@@ -264,7 +266,7 @@ object Report {
         s"* whole core: ${timingLine(x)}\n" + blockTimes.map { case (n, b) => s"* $n alone: ${timingLine(b)}\n" }.mkString
     }
     write(new File(dir, "report.md"), md.toString)
-    println(f"$app: ${all.les} LEs (${pct(all.les, Device.les)}%.1f%%), $m4k M4K (${pct(m4k, Device.m4k)}%.1f%%), " +
+    println(f"$app: ${all.les} LEs (${pct(all.les.toDouble, Device.les)}%.1f%%), $m4k M4K (${pct(m4k.toDouble, Device.m4k)}%.1f%%), " +
       f"${num(all.mul18)} multipliers (${pct(all.mul18, Device.multipliers)}%.1f%%)" + t.fold("")(x => f", ECP5 proxy ${x.fmaxMhz}%.1f MHz") +
       s"; wrote ${dir.getPath}/report.json and report.md")
   }
