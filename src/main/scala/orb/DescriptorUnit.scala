@@ -28,8 +28,9 @@ case class OrbFeature(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) e
   * written), engine 1 through the second port. The 256 tests go in pairs (2k, 2k + 1) through a pipeline that
   * rotates their points with the bin's cos/sin (x' = round(x cos - y sin), y' = round(x sin + y cos), half to even)
   * and decodes their rows; a pair whose four points lie in four different rows is read in one clock, otherwise its
-  * tests go one at a time, and a test whose two points share a row takes two clocks. The read data pass a register
-  * after the row selection before they are compared, so no path crosses both the 45-row decode and the compare.
+  * tests go one at a time, and a test whose two points share a row takes two clocks. The decoded ports, the RAMs'
+  * data and the selected values are each registered, so no path crosses two of the 45-row decode, the long wires
+  * to and from the RAMs, and the compare.
   * Corners
   * are handed to the engines in turn and their features collected in the same turn, so they leave in raster
   * order. A consumer that waits holds the collection (two register stages, no FIFO RAM): the engines keep their
@@ -225,16 +226,17 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
     // The RAMs' data, registered, three clocks after the issue; a register after the row selection; then the
     // comparisons.
     val readData = Vec(UInt(8 bits), rows)
-    val rowsD = Delay(issue.pair.row, 3)
+    val readLatency = 4 // port register, RAM, data register, row selection
+    val rowsD = Delay(issue.pair.row, readLatency - 1)
     def select(pt: Int): UInt = RegNext((0 until rows).map(r => readData(r) & U(8 bits, default -> rowsD(pt)(r))).reduceBalancedTree(_ | _))
-    /** `b` four clocks later, when the data it goes with arrive; a restart voids what is in flight */
-    def delayed(b: Bool): Bool = (0 until 4).foldLeft(b)((v, _) => RegNext(v && !restart) init False)
+    /** `b` when the data it goes with arrive; a restart voids what is in flight */
+    def delayed(b: Bool): Bool = (0 until readLatency).foldLeft(b)((v, _) => RegNext(v && !restart) init False)
     val v1 = select(0); val v2 = select(1); val v3 = select(2); val v4 = select(3)
     val holdD = delayed(issue.go && !issue.dual && !issue.last)
     val completesD = delayed(issue.go && (issue.dual || issue.last))
     val dualD = delayed(issue.go && issue.dual)
     val testBD = delayed(issue.testB)
-    val pairedD = delayed(issue.go && !issue.dual && Mux(issue.testB, issue.pair.sameB, issue.pair.sameA))
+    val pairedD = delayed(issue.go && !issue.dual && issue.same)
     val p1 = Mux(testBD, v3, v1); val p2 = Mux(testBD, v4, v2)
     val held = Reg(UInt(8 bits))
     when(holdD) { held := p1 }

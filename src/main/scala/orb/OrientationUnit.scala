@@ -152,22 +152,21 @@ class OrientationUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, c
   }
   // The finished patch, a clock after its last column: m10 = 16 a1 - a2 = 15 a1 - a2' (a2' = acc2, a column
   // behind) is formed in the stage after.
+  case class Patch() extends Bundle {
+    val corner = HarrisCorner(f, h)
+    val m01 = SInt(momentWidth bits)
+    val a1 = UInt(acc1Width bits)
+    val a2 = UInt(acc2Width bits)
+  }
   case class Finished() extends Bundle {
     val oriented = OrientedCorner(f, h, d)
     val a1 = UInt(acc1Width bits)
     val a2 = UInt(acc2Width bits)
   }
-  val finishing = Flow(Finished())
   val emits = accumulate.map(_.emit)
-  val finishedSlot = OhMux.or(emits, slots.map { slot =>
-    val o = Finished()
-    o.oriented.corner := slot.corner
-    o.oriented.m10.assignDontCare(); o.oriented.bin.assignDontCare()
-    o.oriented.m01 := slot.m01
-    o.oriented.startRow.assignDontCare(); o.oriented.frameTag.assignDontCare(); o.oriented.keyframe.assignDontCare()
-    o.oriented.frameEnd := False; o.oriented.end.assignDontCare()
-    o.a1 := slot.acc1; o.a2 := slot.acc2
-    o
+  // At most one slot finishes per pixel (finishing corners are at distinct x of one row): a one-hot selection.
+  val patch = OhMux.or(emits, slots.map { slot =>
+    val p = Patch(); p.corner := slot.corner; p.m01 := slot.m01; p.a1 := slot.acc1; p.a2 := slot.acc2; p
   })
   val beatD = new Area {
     // The beat of the last column, in row cy + R; the descriptor's 37 smoothed rows are complete when row cy + 22
@@ -178,18 +177,16 @@ class OrientationUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, c
     val ends = RegNext(beat.valid && beat.ends) init False
     val end = RegNext(beat.end)
   }
-  finishing.valid := emits.orR
-  finishing.payload := finishedSlot
-  finishing.oriented.startRow.allowOverride() := beatD.startRow
-  finishing.oriented.frameTag.allowOverride() := beatD.frameTag
-  finishing.oriented.keyframe.allowOverride() := beatD.keyframe
   // A frame's end follows its corners: no corner of a good frame finishes on its last pixel (the last corners
   // finish 7 rows earlier), and on a fault no corner finishes (it would be dropped).
-  when(beatD.ends) {
-    finishing.valid := True
-    finishing.oriented.frameEnd := True
-    finishing.oriented.end := beatD.end
-  }
+  val finishing = Flow(Finished())
+  finishing.valid := emits.orR || beatD.ends
+  val o = finishing.oriented
+  o.corner := patch.corner; o.m01 := patch.m01
+  o.m10.assignDontCare(); o.bin.assignDontCare()
+  o.startRow := beatD.startRow; o.frameTag := beatD.frameTag; o.keyframe := beatD.keyframe
+  o.frameEnd := beatD.ends; o.end := beatD.end
+  finishing.a1 := patch.a1; finishing.a2 := patch.a2
   val moments = finishing.stage().map { p =>
     val o = OrientedCorner(f, h, d)
     o := p.oriented
