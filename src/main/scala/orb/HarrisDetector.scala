@@ -9,10 +9,12 @@ import Arith._
   * between. Steps of one node share a clock; the default puts a register after every adder tree and multiplier. */
 case class HarrisStages(sobel: Int = 0, products: Int = 1, columnPre: Int = 2, columnSum: Int = 3, rowPre: Int = 4,
                         rowMid: Int = 5, rowSum: Int = 6, multiply: Int = 7, kTrace: Int = 8, response: Int = 9,
-                        suppressRead: Int = 10) {
+                        suppressRead: Int = 10, segmentCompare: Int = 0, segmentArc: Int = 1) {
   private val order = Seq(sobel, products, columnPre, columnSum, rowPre, rowMid, rowSum, multiply, kTrace, response, suppressRead)
   require(order.head >= 0 && order.zip(order.tail).forall { case (a, b) => b > a },
     "each step needs the previous one's registered result: node indices must strictly increase")
+  require(segmentCompare >= 0 && segmentArc > segmentCompare && segmentArc <= response,
+    "the segment test compares, then combines arcs a node later, at the latest where the score is formed")
   /** the window column arrives one node after it is read and is registered once more before the comparisons
     * (a RAM's output is slow); the corner leaves one node later */
   def suppress: Int = suppressRead + 2
@@ -34,7 +36,7 @@ class HarrisDetector(f: FrameConfig, h: HarrisConfig, columnRows: Int, stages: H
   val io = new Bundle {
     val columns = slave Flow (LineColumn(f, columnRows))
     val geometry = in(FrameGeometry(f))
-    val threshold = in UInt (32 bits)
+    val control = in(CornerControl())
     val corners = master Flow (HarrisCorner(f, h))
     val frameEnds = master Flow (FrameEndInfo())
     val cornerCount = out UInt (f.counterWidth bits)
@@ -77,6 +79,26 @@ class HarrisDetector(f: FrameConfig, h: HarrisConfig, columnRows: Int, stages: H
     val GX = insert(Vec((1 to 7).map(r => w121(px(0, r - 1), px(0, r), px(0, r + 1), gw) - w121(px(2, r - 1), px(2, r), px(2, r + 1), gw))))
     // Index r-1 is the row below r (newer), so gy = bottom - top as in OpenCV.
     val GY = insert(Vec((1 to 7).map(r => w121(px(0, r - 1), px(1, r - 1), px(2, r - 1), gw) - w121(px(0, r + 1), px(1, r + 1), px(2, r + 1), gw))))
+  }
+
+  // Segment test at the window's centre (x - 4, y - 4 of the newest pixel x, y): its 7x7 raw pixels are rows
+  // 1..7 of the 7 columns before the newest, the same rows and columns the gradients cover.
+  val segment = h.segment.map { sc =>
+    val compareNode = at(stages.segmentCompare)
+    val arcNode = at(stages.segmentArc)
+    new Area {
+      val win = lastValid(Vec(compareNode(COLUMN).slice(1, 8)), 8, compareNode.isValid) // win(j)(i): column x - j, row index i + 1
+      def px(dx: Int, dy: Int): UInt = win(4 - dx)(3 - dy) // dy > 0 is down, a newer row
+      val centre = px(0, 0)
+      val t = io.control.segmentThreshold
+      val brighterThan = centre +^ t
+      val darkerThan = centre.intoSInt.resize(10) - t.intoSInt.resize(10)
+      val ring = SegmentTestConfig.circle.map { case (dx, dy) => px(dx, dy) }
+      val BRIGHTER = compareNode.insert(Vec(ring.map(_ > brighterThan)).asBits)
+      val DARKER = compareNode.insert(Vec(ring.map(_.intoSInt.resize(10) < darkerThan)).asBits)
+      def anyArc(b: Bits): Bool = (0 until 16).map(s => (0 until sc.arc).map(k => b((s + k) % 16)).andR).orR
+      val PASSES = arcNode.insert(anyArc(arcNode(BRIGHTER)) || anyArc(arcNode(DARKER)))
+    }
   }
 
   // Exact products; 11x11 bits, one embedded multiplier each.
@@ -128,7 +150,9 @@ class HarrisDetector(f: FrameConfig, h: HarrisConfig, columnRows: Int, stages: H
   val response = new responseNode.Area {
     val r = kTrace.DET.resize(h.responseWidth) - kTrace.KTR2.intoSInt.resize(h.responseWidth)
     val shifted = floorShift(r, h.scoreShift)
-    val SCORE = insert(Mux(shifted.sign, U(0, h.scoreWidth bits), shifted.asUInt.resize(h.scoreWidth)))
+    // A pixel that fails the segment test scores 0: it can neither be a corner nor suppress a neighbour.
+    val candidate = segment.fold(True)(seg => !io.control.segmentTest || seg.PASSES)
+    val SCORE = insert(Mux(shifted.sign || !candidate, U(0, h.scoreWidth bits), shifted.asUInt.resize(h.scoreWidth)))
   }
 
   // 3x3 suppression over the last 3 rows of scores (its own small row window) and 3 columns of registers.
@@ -147,7 +171,7 @@ class HarrisDetector(f: FrameConfig, h: HarrisConfig, columnRows: Int, stages: H
     // so beats still in flight from the previous frame see the right values.
     // (v - reach) in [border, size - 1 - border], without unsigned wrap-around for small frames.
     def inside(v: UInt, size: UInt) = v >= h.border + reach && (v +^ h.border) < (size +^ reach)
-    val isCorner = p.active && centre > io.threshold && earlier.map(centre > _).andR && later.map(centre >= _).andR &&
+    val isCorner = p.active && centre > io.control.threshold && earlier.map(centre > _).andR && later.map(centre >= _).andR &&
       inside(p.x, io.geometry.width) && inside(p.y, io.geometry.height)
     val IS_CORNER = n.insert(isCorner)
     val CENTRE = n.insert(centre)

@@ -22,8 +22,8 @@ case class CoreStatus(c: FrameConfig) extends Bundle {
 class OrbCore(val cfg: OrbConfig = OrbConfig.default) extends Component {
   val io = new Bundle {
     val pixels = slave Flow (PixelBeat())
-    /** a pixel is a corner candidate when its score is above this */
-    val harrisThreshold = in UInt (32 bits)
+    /** Harris threshold and segment test */
+    val cornerControl = in(CornerControl())
     val corners = master Flow (HarrisCorner(cfg.frame, cfg.harris))
     val features = master Stream (OrbFeature(cfg.frame, cfg.harris, cfg.descriptor))
     val frameEnds = master Flow (FrameEndInfo())
@@ -40,7 +40,7 @@ class OrbCore(val cfg: OrbConfig = OrbConfig.default) extends Component {
   lines.io.pixels << tracker.io.tracked
   harris.io.columns << lines.io.columns
   harris.io.geometry := tracker.io.geometry
-  harris.io.threshold := io.harrisThreshold
+  harris.io.control := io.cornerControl
   io.corners << harris.io.corners
   smoother.io.columns << lines.io.columns
   orientation.io.columns << lines.io.columns

@@ -31,10 +31,14 @@ class OrbTop(val cfg: OrbConfig = OrbConfig.default) extends Component {
     bus.read(B(OrbTop.id, 32 bits), ID)
     val ratioTest = bus.createReadAndWrite(Bool(), CONTROL, 0) init Bool(m.defaultRatioTest)
     val crossCheck = bus.createReadAndWrite(Bool(), CONTROL, 1) init Bool(m.defaultCrossCheck)
+    val segmentTest = bus.createReadAndWrite(Bool(), CONTROL, 2) init Bool(cfg.harris.segment.isDefined)
     val harrisThreshold = bus.createReadAndWrite(UInt(32 bits), HARRIS_THRESHOLD) init cfg.harris.defaultThreshold
+    val segmentThreshold = bus.createReadAndWrite(UInt(8 bits), SEGMENT_THRESHOLD) init cfg.harris.segment.fold(0)(_.defaultThreshold)
     val hamming = bus.createReadAndWrite(UInt(MatcherConfig.distanceWidth bits), HAMMING_THRESHOLD) init m.defaultHammingThreshold
     val ratio = bus.createReadAndWrite(UInt(m.ratioWidth bits), RATIO) init m.defaultRatio
-    core.io.harrisThreshold := harrisThreshold
+    core.io.cornerControl.threshold := harrisThreshold
+    core.io.cornerControl.segmentTest := segmentTest
+    core.io.cornerControl.segmentThreshold := segmentThreshold
     matcher.io.params.hammingThreshold := hamming
     matcher.io.params.ratio := ratio
     matcher.io.params.ratioTest := ratioTest
@@ -49,18 +53,21 @@ class OrbTop(val cfg: OrbConfig = OrbConfig.default) extends Component {
 
 object OrbTop {
   /** "ORB" and the register map's version */
-  val id: BigInt = BigInt("4f524201", 16)
+  val id: BigInt = BigInt("4f524202", 16)
   val avalonConfig: AvalonMMConfig = AvalonMMSlaveFactory.getAvalonConfig(addressWidth = 8, dataWidth = 32)
 
   /** Byte addresses of the 32-bit registers (the README documents them). */
   object Registers {
     val ID = 0x00
-    /** bit 0: ratio test on, bit 1: cross-check on (both take effect at the next frame) */
+    /** bit 0: ratio test on, bit 1: cross-check on (both take effect at the next frame), bit 2: segment test on
+      * (corner candidates; takes effect at once, as the thresholds) */
     val CONTROL = 0x04
     val HARRIS_THRESHOLD = 0x08
     val HAMMING_THRESHOLD = 0x0c
     /** ratio-test factor r scaled 2^ratioFracBits (accept when best < r * second) */
     val RATIO = 0x10
+    /** the segment test's intensity threshold t (0..255) */
+    val SEGMENT_THRESHOLD = 0x14
     val FRAMES = 0x20
     val BAD_FRAMES = 0x24
     val BAD_LINES = 0x28

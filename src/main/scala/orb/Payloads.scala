@@ -45,3 +45,12 @@ case class HarrisCorner(c: FrameConfig, h: HarrisConfig) extends Bundle {
   val x, y = UInt(c.coordWidth bits)
   val score = UInt(h.scoreWidth bits)
 }
+
+/** The corner detector's run-time parameters (`CornerParams` in the model). */
+case class CornerControl() extends Bundle {
+  /** a candidate is a corner when its score is above this */
+  val threshold = UInt(32 bits)
+  /** only pixels that pass the segment test are candidates (ignored without `HarrisConfig.segment`) */
+  val segmentTest = Bool()
+  val segmentThreshold = UInt(8 bits)
+}

@@ -49,10 +49,42 @@ class HarrisModelSpec extends AnyFunSuite {
 
   test("an ideal corner is found where it is, and its score grows with the 4th power of the contrast") {
     def corner(c: Int) = GrayImage.tabulate(64, 64)((x, y) => if (x >= 32 && y >= 32) c else 0)
-    val strong = HarrisModel.corners(corner(64), cfg, threshold = 0)
-    assert(strong.size == 1 && (strong.head.x - 32).abs <= 1 && (strong.head.y - 32).abs <= 1)
-    val weak = HarrisModel.corners(corner(32), cfg, threshold = 0).head.score
-    assert(strong.head.score.toDouble / weak > 14 && strong.head.score.toDouble / weak < 18)
+    for (p <- Seq(CornerParams(0, None), cfg.params(0))) {
+      val strong = HarrisModel.corners(corner(64), cfg, p)
+      assert(strong.size == 1 && (strong.head.x - 32).abs <= 1 && (strong.head.y - 32).abs <= 1, s"$p: $strong")
+      val weak = HarrisModel.corners(corner(32), cfg, p).head.score
+      assert(strong.head.score.toDouble / weak > 14 && strong.head.score.toDouble / weak < 18)
+    }
+  }
+
+  test("segment test: 9 contiguous circle pixels strictly beyond centre +- t, around the wrap of the circle") {
+    val ring = SegmentTestConfig.circle
+    /** A 9x9 image with centre 100 and circle pixel i set to level(i). */
+    def probe(level: Int => Int): GrayImage = {
+      val px = Array.fill(81)(100)
+      ring.zipWithIndex.foreach { case ((dx, dy), i) => px((4 + dy) * 9 + 4 + dx) = level(i) }
+      GrayImage(9, 9, px)
+    }
+    def passes(img: GrayImage, t: Int, arc: Int = 9) = HarrisModel.segmentTest(img, t, arc)(4, 4)
+    for (start <- Seq(0, 5, 12)) { // 12: the arc wraps from pixel 15 to pixel 0
+      def arc(n: Int, v: Int) = probe(i => if ((i - start + 16) % 16 < n) v else 100)
+      assert(passes(arc(9, 121), 20) && passes(arc(9, 79), 20), s"start $start: 9 brighter / darker pass")
+      assert(!passes(arc(8, 121), 20) && !passes(arc(8, 79), 20), s"start $start: 8 do not")
+      assert(!passes(arc(9, 120), 20) && !passes(arc(9, 80), 20), s"start $start: exactly centre +- t is not beyond it")
+      assert(passes(arc(12, 200), 20, arc = 12) && !passes(arc(11, 200), 20, arc = 12), "FAST-12")
+    }
+    assert(!passes(probe(i => if (i % 2 == 0) 200 else 0), 20), "alternating pixels: no arc")
+    assert(!passes(probe(_ => 255), 255) && !passes(probe(_ => 0), 255), "t = 255: nothing is beyond")
+    assert(!HarrisModel.segmentTest(probe(_ => 200), 20, 9)(3, 4), "no test within 3 px of an edge")
+  }
+
+  test("a pixel that fails the segment test scores 0: it is no corner and suppresses no neighbour") {
+    val s = Array.fill(30 * 30)(0L); s(20 * 30 + 20) = 90; s(20 * 30 + 21) = 70
+    val all = new HarrisModel.Plane(30, 30, Array.fill(900)(true))
+    val masked = new HarrisModel.Plane(30, 30, Array.tabulate(900)(_ != 20 * 30 + 20))
+    val plane = new HarrisModel.Plane(30, 30, s)
+    assert(HarrisModel.suppress(HarrisModel.candidateScores(plane, Some(all)), 10, 5) == Seq(Corner(20, 20, 90)))
+    assert(HarrisModel.suppress(HarrisModel.candidateScores(plane, Some(masked)), 10, 5) == Seq(Corner(21, 20, 70)))
   }
 
   test("frame tracker: geometry from the first frame, processing from the second") {

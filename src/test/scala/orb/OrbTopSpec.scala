@@ -24,9 +24,9 @@ class OrbTopSpec extends AnyFunSuite {
 
   def check(name: String, key: GrayImage, live: GrayImage, p: MatchParams, blanking: Blanking, ready: Double): (SystemModel.Result, TopResult) = {
     val beats = SystemModel.pairBeats(key, live)
-    val model = SystemModel.run(config, beats, threshold, p)
+    val model = SystemModel.run(config, beats, cornerParams, p)
     var rtl: TopResult = null
-    top.doSim(name, seed.toInt) { dut => rtl = TopSim.run(dut, config, beats, threshold, p, blanking, ready, rng(name).nextLong()) }
+    top.doSim(name, seed.toInt) { dut => rtl = TopSim.run(dut, config, beats, cornerParams, p, blanking, ready, rng(name).nextLong()) }
     val fd = model.core.featureStream.zipAll(rtl.featureStream, null, null).indexWhere { case (a, b) => a != b }
     assert(fd < 0, s"$name: feature stream item $fd: model ${model.core.featureStream.lift(fd)} vs RTL ${rtl.featureStream.lift(fd)}")
     if (model.correspondences != rtl.correspondences) {
@@ -66,9 +66,10 @@ class OrbTopSpec extends AnyFunSuite {
   test("registers: ID, read back of every parameter") {
     import OrbTop.Registers._
     top.doSim("registers", seed.toInt) { dut =>
-      val (bus, _) = TopSim.start(dut, 12345, MatchParams(hammingThreshold = 77, ratio = Some(200), crossCheck = true), 1.0, rng("regs"))
+      val (bus, _) = TopSim.start(dut, CornerParams(12345, Some(37)), MatchParams(hammingThreshold = 77, ratio = Some(200), crossCheck = true), 1.0, rng("regs"))
       assert(bus.read(ID) == OrbTop.id.toLong)
-      assert(bus.read(HARRIS_THRESHOLD) == 12345 && bus.read(HAMMING_THRESHOLD) == 77 && bus.read(RATIO) == 200 && bus.read(CONTROL) == 3)
+      assert(bus.read(HARRIS_THRESHOLD) == 12345 && bus.read(SEGMENT_THRESHOLD) == 37 && bus.read(HAMMING_THRESHOLD) == 77 &&
+        bus.read(RATIO) == 200 && bus.read(CONTROL) == 7)
       bus.write(CONTROL, 0)
       assert(bus.read(CONTROL) == 0 && bus.read(FRAMES) == 0 && bus.read(STORED) == 0)
     }

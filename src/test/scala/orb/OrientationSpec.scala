@@ -12,7 +12,7 @@ class OrientationHarness(c: OrbConfig) extends Component {
   val rows = 2 * OrbDescriptorConfig.patchRadius + 1
   val io = new Bundle {
     val pixels = slave Flow (PixelBeat())
-    val threshold = in UInt (32 bits)
+    val control = in(CornerControl())
     val oriented = master Flow (OrientedCorner(c.frame, c.harris, c.descriptor))
     val dropped = out UInt (32 bits)
   }
@@ -24,7 +24,7 @@ class OrientationHarness(c: OrbConfig) extends Component {
   lines.io.pixels << tracker.io.tracked
   harris.io.columns << lines.io.columns
   harris.io.geometry := tracker.io.geometry
-  harris.io.threshold := io.threshold
+  harris.io.control := io.control
   orientation.io.columns << lines.io.columns
   orientation.io.corners << harris.io.corners
   io.oriented << orientation.io.oriented
@@ -40,7 +40,7 @@ class OrientationSpec extends AnyFunSuite {
 
   def check(name: String, img: GrayImage, blanking: Blanking): Unit = {
     val d = config.descriptor
-    val expected = HarrisModel.corners(img, config.harris, threshold).map { c =>
+    val expected = HarrisModel.corners(img, config.harris, cornerParams).map { c =>
       val (m10, m01) = OrbModel.moments(img, c.x, c.y)
       (c.x, c.y, c.score, m10, m01, OrbModel.angleBin(m10, m01, d))
     }
@@ -48,7 +48,7 @@ class OrientationSpec extends AnyFunSuite {
     var dropped = -1L
     harness.doSim(name, seed.toInt) { dut =>
       CoreSim.idlePixels(dut.io.pixels)
-      dut.io.threshold #= threshold
+      CoreSim.control(dut.io.control, cornerParams)
       CoreSim.startClock(dut.clockDomain)
       dut.clockDomain.onSamplings {
         val o = dut.io.oriented

@@ -13,7 +13,7 @@ class StreamFaultSpec extends AnyFunSuite {
 
   val a: GrayImage = Patterns.boxes(96, 80, rng("fault-a"), n = 16)
   val w: Int = a.width
-  lazy val clean: Seq[Corner] = HarrisModel.corners(a, config.harris, threshold)
+  lazy val clean: Seq[Corner] = HarrisModel.corners(a, config.harris, cornerParams)
 
   def lineStart(line: Int) = line * w
   /** The frame of `a` with its `line` cut to `len` pixels. */
@@ -48,9 +48,9 @@ class StreamFaultSpec extends AnyFunSuite {
 
   def runBoth(name: String, frames: Seq[Seq[Beat]]): (CoreResult, RtlResult) = {
     val beats = frames.flatten
-    val model = CoreModel.run(config, beats, threshold)
+    val model = CoreModel.run(config, beats, cornerParams)
     var rtl: RtlResult = null
-    core.doSim(name, seed.toInt) { dut => rtl = CoreSim.run(dut, beats, threshold, Blanking.random, rng(name).nextLong()) }
+    core.doSim(name, seed.toInt) { dut => rtl = CoreSim.run(dut, beats, cornerParams, Blanking.random, rng(name).nextLong()) }
     Scoreboard.compare(name, CoreEvents.of(model), rtl.events, Some(a)).foreach(msg => fail(msg))
     assert(rtl.counters == model.counters, s"$name: counters")
     assert(rtl.featureStream == model.featureStream, s"$name: feature output (model ${model.features.size}, RTL ${rtl.features.size})")
@@ -88,9 +88,9 @@ class StreamFaultSpec extends AnyFunSuite {
     val cut = 70 * 240 + 100 // a short line in row 70: corners of rows 40..48 are queued or in the engines then
     val faulty = f.take(cut) ++ Seq(f(cut).copy(eol = true)) ++ f.drop(71 * 240)
     val beats = f ++ f ++ faulty ++ f ++ f
-    val model = CoreModel.run(config, beats, threshold)
+    val model = CoreModel.run(config, beats, harrisOnly) // checkerboard crossings: Harris maxima
     var rtl: RtlResult = null
-    core.doSim("fault-while-waiting", seed.toInt) { dut => rtl = CoreSim.run(dut, beats, threshold, Blanking.none, seed) }
+    core.doSim("fault-while-waiting", seed.toInt) { dut => rtl = CoreSim.run(dut, beats, harrisOnly, Blanking.none, seed) }
     Scoreboard.compare("fault-while-waiting", CoreEvents.of(model), rtl.events, Some(dense)).foreach(msg => fail(msg))
     val left = rtl.features.foldLeft(model.features.toList) { (rest, feat) =>
       val after = rest.dropWhile(_ != feat)
@@ -118,12 +118,12 @@ class StreamFaultSpec extends AnyFunSuite {
   test("reset in the middle of a frame, with the pipeline busy") {
     val before = good ++ good ++ cut(45, 30)
     val after = good.drop(500) ++ good ++ good
-    val modelBefore = CoreEvents.of(CoreModel.run(config, before, threshold))
-    val modelAfter = CoreEvents.of(CoreModel.run(config, after, threshold))
+    val modelBefore = CoreEvents.of(CoreModel.run(config, before, cornerParams))
+    val modelAfter = CoreEvents.of(CoreModel.run(config, after, cornerParams))
     var pre, post: Seq[CoreEvent] = Nil
     var countersAfter: FrameCounters = null
     core.doSim("reset-mid-frame", seed.toInt) { dut =>
-      val monitor = CoreSim.start(dut, threshold)
+      val monitor = CoreSim.start(dut, cornerParams)
       val r = rng("reset")
       CoreSim.drive(dut, before, Blanking.random, r)
       pre = monitor.events.toList

@@ -1,6 +1,6 @@
 package orb.model
 
-import orb.OrbConfig
+import orb.{CornerParams, OrbConfig}
 import scala.collection.mutable.ArrayBuffer
 
 /** End of a processed frame, as the core reports it. */
@@ -21,7 +21,7 @@ final case class CoreResult(corners: Seq[Corner], frameEnds: Seq[FrameEnd], coun
   * gets its feature iff the first beat of row y + `startRowOffset`, where its descriptor starts, was processed too.
   * (Features the hardware drops for lack of time are not modelled: the tests check that there are none.) */
 object CoreModel {
-  def run(cfg: OrbConfig, beats: Seq[Beat], threshold: Long): CoreResult = {
+  def run(cfg: OrbConfig, beats: Seq[Beat], p: CornerParams): CoreResult = {
     val tracker = new FrameTrackerModel(cfg.frame)
     val reach = orb.HarrisConfig.reach
     val corners = ArrayBuffer[(Int, Corner)]()
@@ -38,7 +38,7 @@ object CoreModel {
     def flush(): Unit = if (collecting) {
       collecting = false
       val img = GrayImage(w, h, pixels)
-      val emitted = HarrisModel.corners(img, cfg.harris, threshold).filter { c =>
+      val emitted = HarrisModel.corners(img, cfg.harris, p).filter { c =>
         val emit = (c.y + reach) * w + (c.x + reach)
         if (emit < activeCount) corners += beatIndex(emit) -> c
         emit < activeCount

@@ -1,6 +1,6 @@
 package orb.model
 
-import orb.HarrisConfig
+import orb.{CornerParams, HarrisConfig, SegmentTestConfig}
 
 /** A corner as the hardware emits it. */
 final case class Corner(x: Int, y: Int, score: Long)
@@ -63,6 +63,27 @@ object HarrisModel {
     response(window(xx, cfg), window(yy, cfg), window(xy, cfg), cfg)
   }
 
+  /** OpenCV's FAST segment test at every pixel at least 3 from the edges (false elsewhere): `arc` contiguous circle
+    * pixels all > centre + t, or all < centre - t. */
+  def segmentTest(img: GrayImage, t: Int, arc: Int): Plane[Boolean] = {
+    val (w, h) = (img.width, img.height)
+    val ring = SegmentTestConfig.circle
+    def run(hit: IndexedSeq[Boolean]) = ring.indices.exists(s => (0 until arc).forall(k => hit((s + k) % ring.size)))
+    new Plane(w, h, Array.tabulate(w * h) { i =>
+      val (x, y) = (i % w, i / w)
+      inside(w, h, x, y, SegmentTestConfig.radius) && {
+        val c = img(x, y); val p = ring.map { case (dx, dy) => img(x + dx, y + dy) }.toIndexedSeq
+        run(p.map(_ > c + t)) || run(p.map(_ < c - t))
+      }
+    })
+  }
+
+  /** The scores the suppression sees: a pixel that fails the segment test scores 0 (it can neither be a corner nor
+    * suppress a neighbour). */
+  def candidateScores(s: Plane[Long], passes: Option[Plane[Boolean]]): Plane[Long] = passes.fold(s) { m =>
+    new Plane(s.width, s.height, Array.tabulate(s.data.length)(i => if (m.data(i)) s.data(i) else 0L))
+  }
+
   /** A pixel is a corner when its score exceeds the threshold, it lies `border` or more from every edge, and it
     * wins the 3x3 suppression: strictly greater than the 4 neighbours before it in raster order (left and the
     * row above), greater or equal to the 4 after it. A plateau of equal scores thus keeps exactly its first pixel
@@ -81,6 +102,9 @@ object HarrisModel {
     } yield Corner(x, y, c)
   }
 
-  def corners(img: GrayImage, cfg: HarrisConfig, threshold: Long): Seq[Corner] =
-    suppress(score(responseMap(img, cfg), cfg), threshold, cfg.border)
+  def corners(img: GrayImage, cfg: HarrisConfig, p: CornerParams): Seq[Corner] = {
+    require(p.segmentThreshold.isEmpty || cfg.segment.isDefined, "this configuration has no segment test")
+    val passes = for (t <- p.segmentThreshold; seg <- cfg.segment) yield segmentTest(img, t, seg.arc)
+    suppress(candidateScores(score(responseMap(img, cfg), cfg), passes), p.threshold, cfg.border)
+  }
 }

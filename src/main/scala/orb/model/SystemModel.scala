@@ -1,6 +1,6 @@
 package orb.model
 
-import orb.OrbConfig
+import orb.{CornerParams, OrbConfig}
 
 /** The whole core end to end (`orb.OrbTop`): pixels -> features (`CoreModel`) -> store and matcher (`MatcherModel`). */
 object SystemModel {
@@ -8,8 +8,8 @@ object SystemModel {
     def correspondences: Seq[Correspondence] = matches.correspondences
   }
 
-  def run(cfg: OrbConfig, beats: Seq[Beat], threshold: Long, p: MatchParams): Result = {
-    val core = CoreModel.run(cfg, beats, threshold)
+  def run(cfg: OrbConfig, beats: Seq[Beat], corners: CornerParams, p: MatchParams): Result = {
+    val core = CoreModel.run(cfg, beats, corners)
     Result(core, MatcherModel.run(core.featureStream, p, cfg.matcher))
   }
 

@@ -64,10 +64,16 @@ object CoreSim {
   }
 
   /** Drives every input to a defined value; call before the first clock edge. */
-  def idle(dut: OrbCore, threshold: Long): Unit = {
+  def idle(dut: OrbCore, p: CornerParams): Unit = {
     idlePixels(dut.io.pixels)
-    dut.io.harrisThreshold #= threshold
+    control(dut.io.cornerControl, p)
     dut.io.features.ready #= true
+  }
+
+  def control(c: CornerControl, p: CornerParams): Unit = {
+    c.threshold #= p.threshold
+    c.segmentTest #= p.segmentThreshold.isDefined
+    c.segmentThreshold #= p.segmentThreshold.fold(0L)(_.toLong)
   }
 
   /** Clock and reset for any block with a pixel port: defined inputs first, as Verilator 5 needs. */
@@ -134,8 +140,8 @@ object CoreSim {
   def drain(dut: OrbCore): Unit = dut.clockDomain.waitSampling(OrbCore.latency() + 4000)
 
   /** Defined inputs, clock and reset, then a monitor from the first clock after reset. */
-  def start(dut: OrbCore, threshold: Long): Monitor = {
-    idle(dut, threshold)
+  def start(dut: OrbCore, p: CornerParams): Monitor = {
+    idle(dut, p)
     startClock(dut.clockDomain)
     new Monitor(dut)
   }
@@ -146,8 +152,8 @@ object CoreSim {
       dut.io.status.features.toLong, dut.io.status.featureDrops.toLong)
 
   /** One complete run from reset: returns what the core emitted and its counters. */
-  def run(dut: OrbCore, beats: Seq[Beat], threshold: Long, blanking: Blanking, seed: Long): RtlResult = {
-    val monitor = start(dut, threshold)
+  def run(dut: OrbCore, beats: Seq[Beat], p: CornerParams, blanking: Blanking, seed: Long): RtlResult = {
+    val monitor = start(dut, p)
     drive(dut, beats, blanking, new Random(seed))
     drain(dut)
     result(dut, monitor)

@@ -103,7 +103,7 @@ object TopSim {
   }
 
   /** Inputs defined, clock and reset, then the run-time parameters written over the bus. */
-  def start(dut: OrbTop, threshold: Long, p: MatchParams, ready: Double, rng: Random): (Avalon, Monitor) = {
+  def start(dut: OrbTop, corners: CornerParams, p: MatchParams, ready: Double, rng: Random): (Avalon, Monitor) = {
     import OrbTop.Registers._
     CoreSim.idlePixels(dut.io.pixels)
     dut.io.correspondences.ready #= true
@@ -111,10 +111,11 @@ object TopSim {
     bus.idle()
     CoreSim.startClock(dut.clockDomain)
     require(bus.read(ID) == OrbTop.id.toLong, "OrbTop's ID register")
-    bus.write(HARRIS_THRESHOLD, threshold)
+    bus.write(HARRIS_THRESHOLD, corners.threshold)
+    bus.write(SEGMENT_THRESHOLD, corners.segmentThreshold.getOrElse(0).toLong)
     bus.write(HAMMING_THRESHOLD, p.hammingThreshold)
     bus.write(RATIO, p.ratio.getOrElse(0).toLong)
-    bus.write(CONTROL, (if (p.ratio.isDefined) 1 else 0) | (if (p.crossCheck) 2 else 0))
+    bus.write(CONTROL, (if (p.ratio.isDefined) 1 else 0) | (if (p.crossCheck) 2 else 0) | (if (corners.segmentThreshold.isDefined) 4 else 0))
     (bus, new Monitor(dut, ready, rng))
   }
 
@@ -140,10 +141,10 @@ object TopSim {
       monitor.scans.toSeq, registerNames.map { case (n, a) => n -> bus.read(a) }.toMap, monitor.cycles, pixels)
 
   /** One complete run from reset. */
-  def run(dut: OrbTop, cfg: OrbConfig, beats: Seq[Beat], threshold: Long, p: MatchParams, blanking: Blanking,
+  def run(dut: OrbTop, cfg: OrbConfig, beats: Seq[Beat], corners: CornerParams, p: MatchParams, blanking: Blanking,
           ready: Double, seed: Long, progress: Int => Unit = _ => ()): TopResult = {
     val rng = new Random(seed)
-    val (bus, monitor) = start(dut, threshold, p, ready, rng)
+    val (bus, monitor) = start(dut, corners, p, ready, rng)
     CoreSim.drivePixels(dut.io.pixels, dut.clockDomain, beats, blanking, rng, progress)
     drain(dut, monitor, cfg)
     result(dut, bus, monitor, beats.size.toLong)

@@ -17,6 +17,7 @@ object Evaluate {
   val app = "orb.sim.Evaluate"
   val usage: String =
     s"""usage: $app --key KEY.png --live LIVE.png --homography H.txt --out DIR [--harris-threshold T]
+       |       [--segment-threshold T | --no-segment-test]   the corner detector's run-time parameters (see Match --help)
        |  Our core (golden model; the RTL is bit-exact with it) with the default store, cross-check, and with the
        |  ratio test 0.8 too; OpenCV ORB with as many features per image as ours (keyframe: our store), 1 and 8 levels,
        |  BFMatcher(NORM_HAMMING, crossCheck = true). Writes figure9_threshold.{csv,png}, figure9_count.{csv,png}.""".stripMargin
@@ -29,8 +30,8 @@ object Evaluate {
   }
 
   /** Our matches, and the number of features in the store and in the live frame. */
-  def ours(name: String, key: GrayImage, live: GrayImage, h: Array[Double], cfg: OrbConfig, threshold: Long, p: MatchParams): (Series, Int, Int) = {
-    val r = SystemModel.run(cfg, SystemModel.pairBeats(key, live), threshold, p.copy(hammingThreshold = 256))
+  def ours(name: String, key: GrayImage, live: GrayImage, h: Array[Double], cfg: OrbConfig, corners: CornerParams, p: MatchParams): (Series, Int, Int) = {
+    val r = SystemModel.run(cfg, SystemModel.pairBeats(key, live), corners, p.copy(hammingThreshold = 256))
     val liveCount = SystemModel.keyAndLive(r.matches)._2.size
     (Series(name, r.correspondences.map(c => (c.distance, Homography.error(h, c))).sortBy(_._1)), r.matches.store.features.size, liveCount)
   }
@@ -49,10 +50,10 @@ object Evaluate {
     }.sortBy(_._1))
   }
 
-  def evaluate(key: GrayImage, live: GrayImage, h: Array[Double], cfg: OrbConfig, threshold: Long): Seq[Series] = {
+  def evaluate(key: GrayImage, live: GrayImage, h: Array[Double], cfg: OrbConfig, corners: CornerParams): Seq[Series] = {
     val ratio = math.round(0.8 * (1 << cfg.matcher.ratioFracBits)).toInt
-    val (cross, keyCount, liveCount) = ours("ours, cross-check", key, live, h, cfg, threshold, MatchParams(256, None, crossCheck = true))
-    val (both, _, _) = ours("ours, cross-check + ratio 0.8", key, live, h, cfg, threshold, MatchParams(256, Some(ratio), crossCheck = true))
+    val (cross, keyCount, liveCount) = ours("ours, cross-check", key, live, h, cfg, corners, MatchParams(256, None, crossCheck = true))
+    val (both, _, _) = ours("ours, cross-check + ratio 0.8", key, live, h, cfg, corners, MatchParams(256, Some(ratio), crossCheck = true))
     Seq(cross, both,
       openCv("OpenCV ORB, 1 level", key, live, h, keyCount, liveCount, 1),
       openCv("OpenCV ORB, 8 levels", key, live, h, keyCount, liveCount, 8))
@@ -91,20 +92,28 @@ object Evaluate {
   def main(args: Array[String]): Unit = {
     def fail(msg: String): Nothing = { System.err.println(s"$app: $msg"); sys.exit(2) }
     if (args.contains("--help")) { println(usage); return }
-    val opts = args.toList.grouped(2).map {
-      case List(k, v) if Set("--key", "--live", "--homography", "--out", "--harris-threshold")(k) => k -> v
-      case List(k) if k.startsWith("--") => fail(s"$k needs a value")
-      case other => fail(s"unknown argument '${other.head}' (see --help)")
-    }.toMap
+    val valued = Set("--key", "--live", "--homography", "--out", "--harris-threshold", "--segment-threshold")
+    def options(rest: List[String], acc: Map[String, String]): Map[String, String] = rest match {
+      case Nil => acc
+      case "--no-segment-test" :: t => options(t, acc + ("--no-segment-test" -> ""))
+      case k :: v :: t if valued(k) => options(t, acc + (k -> v))
+      case k :: Nil if valued(k) => fail(s"$k needs a value")
+      case other :: _ => fail(s"unknown argument '$other' (see --help)")
+    }
+    val opts = options(args.toList, Map.empty)
     for (k <- Seq("--key", "--live", "--homography", "--out") if !opts.contains(k)) fail(s"$k is required (see --help)")
+    if (opts.contains("--segment-threshold") && opts.contains("--no-segment-test")) fail("--segment-threshold and --no-segment-test contradict each other")
     val cfg = OrbConfig.default
-    val threshold = opts.get("--harris-threshold").map(v => v.toLongOption.filter(_ >= 0).getOrElse(fail(s"--harris-threshold takes a non-negative integer, not '$v'")))
-      .getOrElse(cfg.harris.defaultThreshold)
+    def whole(k: String, hi: Long): Option[Long] =
+      opts.get(k).map(v => v.toLongOption.filter(n => n >= 0 && n <= hi).getOrElse(fail(s"$k takes a whole number from 0 to $hi, not '$v'")))
+    val defaults = cfg.harris.defaultParams
+    val corners = CornerParams(whole("--harris-threshold", 0xffffffffL).getOrElse(defaults.threshold),
+      if (opts.contains("--no-segment-test")) None else whole("--segment-threshold", 255).map(_.toInt).orElse(defaults.segmentThreshold))
     val key = try Match.loadImage(opts("--key"), "--key", cfg) catch { case e: Match.UsageError => fail(e.getMessage) }
     val live = try Match.loadImage(opts("--live"), "--live", cfg) catch { case e: Match.UsageError => fail(e.getMessage) }
     val h = try Homography.load(opts("--homography")) catch { case e: Exception => fail(s"--homography: ${e.getMessage}") }
     val dir = new File(opts("--out")); dir.mkdirs()
-    val series = evaluate(key, live, h, cfg, threshold)
+    val series = evaluate(key, live, h, cfg, corners)
     write(dir, series)
     val n = series.map(_.matches.size).min
     println(s"$app: inliers within 3 px (all matches | the best $n of each, the smallest common count)")

@@ -1,6 +1,6 @@
 package orb.sim
 
-import orb.{HarrisConfig, OrbConfig}
+import orb.{CornerParams, HarrisConfig, OrbConfig}
 import orb.model._
 
 /** How closely the fixed-point Harris model follows the same definition computed in floating point with OpenCV
@@ -58,7 +58,7 @@ object HarrisFidelity {
     val strong = inner.filter(i => ref(i) > strongLevel)
     val maxRel = if (strong.isEmpty) 0.0 else strong.map(i => math.abs(model.data(i) - ref(i)) / ref(i)).max
 
-    val corners = HarrisModel.corners(img, h, threshold).map(c => (c.x, c.y))
+    val corners = HarrisModel.corners(img, h, CornerParams(threshold, None)).map(c => (c.x, c.y)) // Harris maxima: what cornerHarris gives
     val floatScore = ref.map(r => math.max(0.0, r / (1L << h.scoreShift)))
     val floatCorners = suppress(w, ht, floatScore, threshold.toDouble, h.border)
     val fset = floatCorners.toSet; val mset = corners.toSet
@@ -93,5 +93,14 @@ object HarrisFidelity {
     println(s"Harris model vs float reference (OpenCV Sobel + sepFilter2D, doubles), threshold ${o.threshold}, border ${cfg.harris.border}")
     println(header)
     for (f <- o.images) println(row(measure(new java.io.File(f).getName, cli.load(f), cfg, o.threshold)))
+  }
+
+  /** Every pixel OpenCV's FAST-9 test passes at threshold t (its non-maximum suppression off). */
+  def openCvFast(img: GrayImage, t: Int): Set[(Int, Int)] = {
+    import org.bytedeco.opencv.opencv_core.KeyPointVector
+    import org.bytedeco.opencv.opencv_features2d.FastFeatureDetector
+    val kp = new KeyPointVector()
+    FastFeatureDetector.create(t, false, FastFeatureDetector.TYPE_9_16).detect(OpenCv.toMat(img), kp)
+    (0 until kp.size.toInt).map { i => val p = kp.get(i.toLong).pt(); (math.round(p.x), math.round(p.y)) }.toSet
   }
 }

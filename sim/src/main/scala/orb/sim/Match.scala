@@ -23,6 +23,8 @@ object Match {
        |  --ratio R               ratio test: best < R * second best (0 < R < 2, e.g. 0.8; default off)
        |  --cross-check / --no-cross-check   mutual nearest neighbours only (default ${if (OrbConfig.default.matcher.defaultCrossCheck) "on" else "off"})
        |  --harris-threshold T    corner score threshold (default ${OrbConfig.default.harris.defaultThreshold})
+       |  --segment-threshold T   the segment test's intensity threshold, 0..255 (default ${OrbConfig.default.harris.segment.fold("-")(_.defaultThreshold.toString)})
+       |  --no-segment-test       every pixel a corner candidate: pure Harris maxima (CONTROL bit 2 off)
        |  --config NAME           core preset: ${OrbConfig.presets.keys.toSeq.sorted.mkString(", ")} (default: default)
        |  --wave                  (rtl) DIR/wave.fst over the live frame's first rows (or around --trace), DIR/wave.gtkw
        |  --wave-rows N           rows of the live frame in the waveform (default 48)
@@ -33,16 +35,19 @@ object Match {
   final case class Options(key: String = null, live: String = null, out: String = null, engine: String = "model",
                            homography: Option[String] = None, params: MatchParams = MatchParams(
                              OrbConfig.default.matcher.defaultHammingThreshold, None, OrbConfig.default.matcher.defaultCrossCheck),
-                           threshold: Long = OrbConfig.default.harris.defaultThreshold, configName: String = "default",
+                           threshold: Long = OrbConfig.default.harris.defaultThreshold,
+                           /** None: the configuration's default; Some(None): no segment test */
+                           segment: Option[Option[Int]] = None, configName: String = "default",
                            wave: Boolean = false, waveRows: Int = 48, trace: Option[(Int, Int)] = None, seed: Long = 1) {
     def config: OrbConfig = OrbConfig.presets(configName)
+    def corners: CornerParams = CornerParams(threshold, segment.getOrElse(config.harris.defaultParams.segmentThreshold))
   }
 
   final class UsageError(msg: String) extends Exception(msg)
   private def fail(msg: String): Nothing = throw new UsageError(msg)
 
   private val valued = Set("--key", "--live", "--out", "--engine", "--homography", "--hamming", "--ratio",
-    "--harris-threshold", "--config", "--wave-rows", "--trace", "--seed")
+    "--harris-threshold", "--segment-threshold", "--config", "--wave-rows", "--trace", "--seed")
 
   def parse(args: Seq[String]): Options = {
     def int(flag: String, v: String, lo: Long, hi: Long): Long =
@@ -63,6 +68,12 @@ object Match {
       case "--cross-check" :: t => loop(t, o.copy(params = o.params.copy(crossCheck = true)))
       case "--no-cross-check" :: t => loop(t, o.copy(params = o.params.copy(crossCheck = false)))
       case "--harris-threshold" :: v :: t => loop(t, o.copy(threshold = int("--harris-threshold", v, 0, 0xffffffffL)))
+      case "--segment-threshold" :: v :: t =>
+        if (o.segment.contains(None)) fail("--segment-threshold and --no-segment-test contradict each other")
+        loop(t, o.copy(segment = Some(Some(int("--segment-threshold", v, 0, 255).toInt))))
+      case "--no-segment-test" :: t =>
+        if (o.segment.exists(_.isDefined)) fail("--segment-threshold and --no-segment-test contradict each other")
+        loop(t, o.copy(segment = Some(None)))
       case "--config" :: v :: t =>
         if (!OrbConfig.presets.contains(v)) fail(s"unknown --config '$v' (known: ${OrbConfig.presets.keys.toSeq.sorted.mkString(", ")})")
         loop(t, o.copy(configName = v))
@@ -79,6 +90,7 @@ object Match {
     val o = loop(args.toList, Options())
     if (o.key == null || o.live == null || o.out == null) fail("--key, --live and --out are required (see --help)")
     if (o.wave && o.engine != "rtl") fail("--wave needs --engine rtl")
+    if (o.segment.exists(_.isDefined) && o.config.harris.segment.isEmpty) fail(s"--config ${o.configName} has no segment test")
     o
   }
 
@@ -99,7 +111,7 @@ object Match {
                            counters: Seq[(String, Long)], cycles: Option[Long], pixels: Long, rtl: Option[TopResult])
 
   def runModel(o: Options, beats: Seq[Beat]): Outcome = {
-    val r = SystemModel.run(o.config, beats, o.threshold, o.params)
+    val r = SystemModel.run(o.config, beats, o.corners, o.params)
     val c = r.core
     val counters = Seq("frames" -> c.counters.frames, "bad_frames" -> c.counters.badFrames, "bad_lines" -> c.counters.badLines,
       "corners" -> c.cornerCount, "features" -> c.features.size.toLong, "feature_drops" -> 0L,
@@ -128,7 +140,7 @@ object Match {
     compiled.doSim("match", o.seed.toInt) { dut =>
       if (o.wave) disableSimWave()
       val rng = new Random(o.seed)
-      val (bus, monitor) = TopSim.start(dut, o.threshold, o.params, 1.0, rng)
+      val (bus, monitor) = TopSim.start(dut, o.corners, o.params, 1.0, rng)
       // Beats in parts: the waveform is switched on for [waveFrom, waveTo) only; progress between parts.
       val cuts = (Seq(0, total) ++ (if (o.wave) Seq(waveFrom, waveTo) else Nil) ++ (0 until total by (1 << 16)))
         .filter(c => c >= 0 && c <= total).distinct.sorted
@@ -242,7 +254,7 @@ object Match {
       "engine" -> o.engine, "config" -> o.configName,
       "key" -> Seq("path" -> o.key, "width" -> key.width, "height" -> key.height, "features" -> keyFeatures.size),
       "live" -> Seq("path" -> o.live, "width" -> live.width, "height" -> live.height, "features" -> liveFeatures.size),
-      "params" -> Seq("harris_threshold" -> o.threshold, "hamming" -> o.params.hammingThreshold,
+      "params" -> Seq("harris_threshold" -> o.threshold, "segment_threshold" -> o.corners.segmentThreshold, "hamming" -> o.params.hammingThreshold,
         "ratio" -> o.params.ratio.map(r => r.toDouble / (1 << cfg.matcher.ratioFracBits)), "cross_check" -> o.params.crossCheck),
       // The stream sent (SystemModel.pairBeats): the counters count its teaching frames too.
       "stream" -> (if (key.width == live.width && key.height == live.height)

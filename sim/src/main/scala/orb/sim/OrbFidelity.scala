@@ -47,7 +47,7 @@ object OrbFidelity {
   def measure(name: String, img: GrayImage, cfg: OrbConfig, threshold: Long): Figures = {
     val d = cfg.descriptor
     val border = cfg.harris.border
-    val corners = HarrisModel.corners(img, cfg.harris, threshold)
+    val corners = HarrisModel.corners(img, cfg.harris, cfg.harris.params(threshold))
     val ours = OrbModel.features(img, corners, d)
 
     val cvBlur = openCvOrbBlur(img, 32)

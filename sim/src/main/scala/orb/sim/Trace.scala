@@ -16,6 +16,8 @@ object Trace {
     // The model, stage by stage, from the image.
     val response = HarrisModel.responseMap(live, cfg.harris)(x, y)
     val score = (response >> cfg.harris.scoreShift) max 0L
+    val segment = for (t <- o.corners.segmentThreshold; seg <- cfg.harris.segment) yield HarrisModel.segmentTest(live, t, seg.arc)(x, y)
+    val scoreName = s"score max(0, R >> ${cfg.harris.scoreShift})"
     val (m10, m01) = OrbModel.moments(live, x, y)
     val bin = OrbModel.angleBin(m10, m01, cfg.descriptor)
     val desc = Feature(x, y, bin, score, OrbModel.descriptor(OrbModel.smooth(live), x, y, bin, cfg.descriptor))
@@ -27,7 +29,8 @@ object Trace {
     def keyAt(j: Int) = s"#$j (${store.features(j).x}, ${store.features(j).y})"
     val model = Seq(
       "Harris response R" -> response.toString,
-      "score max(0, R >> 2)" -> score.toString,
+      "segment test" -> segment.fold("off")(p => if (p) "passes" else "fails"),
+      scoreName -> score.toString,
       "moment m10" -> m10.toString, "moment m01" -> m01.toString,
       "angle bin" -> bin.toString, "angle (deg)" -> deg(bin),
       "descriptor" -> desc.hex,
@@ -42,7 +45,7 @@ object Trace {
       val feat = r.features.reverse.find(q => q.x == x && q.y == y)
       val scan = r.scans.reverse.find(s => s.liveX == x && s.liveY == y)
       val out = r.correspondences.find(c => c.liveX == x && c.liveY == y)
-      Map("score max(0, R >> 2)" -> corner.fold("-")(_.score.toString),
+      Map(scoreName -> corner.fold("-")(_.score.toString),
         "moment m10" -> ori.fold("-")(_.m10.toString), "moment m01" -> ori.fold("-")(_.m01.toString),
         "angle bin" -> ori.fold("-")(_.bin.toString), "angle (deg)" -> ori.fold("-")(q => deg(q.bin)),
         "descriptor" -> feat.fold("-")(_.hex),

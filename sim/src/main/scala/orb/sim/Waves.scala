@@ -14,7 +14,7 @@ object Waves {
     Seq(
       "1 camera pixels" -> flat(top.io.pixels),
       "2 frame tracker" -> flat(top.core.tracker.io.tracked),
-      "3 Harris corners" -> flat(top.core.harris.io.corners),
+      "3 Harris corners" -> (flat(top.core.harris.io.corners) ++ flat(top.core.harris.io.control)),
       "4 orientation" -> flat(top.core.orientation.io.oriented),
       "5 descriptors (feature stream)" -> flat(top.core.io.features),
       "6 matcher" -> (Seq(m.scan.busy, m.sweep.busy, m.decide.done) ++ flat(m.compare.acc) ++ flat(m.scan.live).filterNot(_.getBitsWidth == 256)),

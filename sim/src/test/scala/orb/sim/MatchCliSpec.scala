@@ -40,7 +40,9 @@ class MatchCliSpec extends AnyFunSuite {
       Seq("--key", graf1, "--live", graf3, "--out", out, "--frobnicate") -> "unknown argument",
       Seq("--key", graf1, "--live", graf3, "--out", out, "--hamming") -> "needs a value",
       Seq("--key", graf1, "--live", graf3, "--out", out, "--homography", badH.getPath) -> "9 numbers",
-      Seq("--key", graf1, "--live", graf3, "--out", out, "--homography", "data/none.txt") -> "no such file")
+      Seq("--key", graf1, "--live", graf3, "--out", out, "--homography", "data/none.txt") -> "no such file",
+      Seq("--key", graf1, "--live", graf3, "--out", out, "--segment-threshold", "256") -> "--segment-threshold takes a whole number from 0 to 255",
+      Seq("--key", graf1, "--live", graf3, "--out", out, "--segment-threshold", "20", "--no-segment-test") -> "contradict")
     for ((args, expected) <- cases) {
       val (status, err) = run(args: _*)
       assert(status == 2, s"${args.mkString(" ")}: status $status")
@@ -57,7 +59,11 @@ class MatchCliSpec extends AnyFunSuite {
     assert(live.head == "x,y,angle_deg,score,descriptor" && live.tail.forall(_.split(",")(4).matches("[0-9a-f]{64}")))
     val summary = lines(dir, "summary.json").mkString("\n")
     assert(summary.contains(s""""correspondences": ${cs.size - 1}""") && summary.contains(s""""features": ${live.size - 1}"""))
-    assert(summary.contains("\"inliers_3px\": 0.") && summary.contains("\"ratio\": 0.80"))
+    assert(summary.contains("\"inliers_3px\": 0.") && summary.contains("\"ratio\": 0.80") && summary.contains("\"segment_threshold\": 20"))
+    val plain = new File(tmp, "model-harris")
+    assert(run("--key", graf1, "--live", graf3, "--out", plain.getPath, "--no-segment-test")._1 == 0)
+    assert(lines(plain, "summary.json").mkString("\n").contains("\"segment_threshold\": null"))
+    assert(lines(plain, "live_features.csv") != live, "pure Harris maxima are other features")
     assert(javax.imageio.ImageIO.read(new File(dir, "matches.png")).getWidth == 800 + 8 + 800)
   }
 
@@ -80,7 +86,7 @@ class MatchCliSpec extends AnyFunSuite {
     val names = lines(r, "wave.gtkw").filter(_.startsWith("TOP."))
     assert(names.size > 50)
     assume(scala.util.Try("fst2vcd --help".!(ProcessLogger(_ => ()))).isSuccess, "fst2vcd (gtkwave) is not installed")
-    val header = Seq("fst2vcd", fst.getPath).lineStream_!(ProcessLogger(_ => ())).takeWhile(!_.contains("$enddefinitions"))
+    val header = Seq("fst2vcd", fst.getPath).lazyLines_!(ProcessLogger(_ => ())).takeWhile(!_.contains("$enddefinitions"))
     var scope = List[String](); val declared = scala.collection.mutable.Set[String]()
     header.map(_.trim.split("\\s+").toSeq).foreach {
       case Seq("$scope", _, name, _*) => scope = scope :+ name
