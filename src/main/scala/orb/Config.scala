@@ -139,8 +139,8 @@ object SegmentTestConfig {
   *
   * @param angleBins        orientation bins over 360 degrees; a multiple of 8 so that the octant folding of the
   *                         angle search lands on bin centres. Measured against OpenCV's own angle and descriptor
-  *                         (`orb.sim.OrbFidelity`): 64 bins (the paper's) differ by 8.6-9.4 bits of 256, 256 bins by
-  *                         2.6-3.2, 512 bins by 1.5-1.9; 512 costs one more step of the angle search and
+  *                         (`orb.sim.OrbFidelity`): 64 bins (the paper's) differ by 8.6-9.8 bits of 256, 256 bins by
+  *                         2.6-3.5, 512 bins by 1.5-2.1; 512 costs one more step of the angle search and
   *                         a 512-entry cos/sin table, nothing per pixel.
   * @param tanFracBits      fraction bits of the bin-boundary tangents the angle search compares against
   * @param rotationFracBits fraction bits of the per-bin cos/sin used to rotate the test pattern
