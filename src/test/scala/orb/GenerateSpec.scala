@@ -53,6 +53,16 @@ class GenerateSpec extends AnyFunSuite {
     assert(scala.io.Source.fromFile(new File(fast, "OrbTop.sdc")).mkString.contains("-period 10.000 [get_ports clk]"))
   }
 
+  test("HarrisConfig(segment = None) elaborates without any segment-test logic; the default has it") {
+    def verilog(cfg: OrbConfig, dir: String): String = {
+      Generate.spinalConfig(dir).generateVerilog(new OrbTop(cfg))
+      val src = scala.io.Source.fromFile(new File(dir, "OrbTop.v")); try src.mkString finally src.close()
+    }
+    val plain = verilog(config.copy(harris = config.harris.copy(segment = None, defaultThreshold = 1L << 13)), "target/gen-test-plain")
+    val default = verilog(config, "target/gen-test-default")
+    assert(default.contains("PASSES") && !plain.contains("PASSES") && !plain.contains("BRIGHTER"))
+  }
+
   test("--help lists every option and exits 0") {
     val out = new ByteArrayOutputStream()
     val status = Console.withOut(out)(Generate.run(Seq("--help")))
