@@ -23,11 +23,7 @@ class DescriptorSpec extends AnyFunSuite {
       assert(diffs.isEmpty, s"$name: ${diffs.size} differ (model ${expected.size}, RTL ${got.size}, drops ${rtl.featureDrops}); first " +
         diffs.take(2).map { case ((a, b), i) => s"#$i model ${show(a)} RTL ${show(b)}" }.mkString("; "))
     } else {
-      got.foldLeft(expected.toList) { (rest, f) =>
-        val after = rest.dropWhile(_ != f)
-        assert(after.nonEmpty, s"$name: RTL feature ${show(f)} is not one of the model's (or out of order)")
-        after.tail
-      }
+      Scoreboard.notAnOrderedSubset(expected, got).foreach(f => fail(s"$name: RTL feature ${show(f)} is not one of the model's (or out of order)"))
       assert(rtl.featureDrops == expected.size - got.size, s"$name: every missing feature is counted")
     }
     println(f"[orb] descriptors $name%-34s ${if (p.segmentThreshold.isEmpty) "Harris maxima" else "segment test "} " +

@@ -28,11 +28,7 @@ class OrbCoreSpec extends AnyFunSuite {
       val fd = model.featureStream.zipAll(rtl.featureStream, null, null).indexWhere { case (a, b) => a != b }
       assert(fd < 0, s"$name: feature output item $fd: model ${model.featureStream.lift(fd)} vs RTL ${rtl.featureStream.lift(fd)}")
     } else {
-      val remaining = rtl.features.foldLeft(model.features.toList) { (rest, f) =>
-        val after = rest.dropWhile(_ != f)
-        assert(after.nonEmpty, s"$name: RTL feature $f is not one of the model's (or out of order)")
-        after.tail
-      }
+      Scoreboard.notAnOrderedSubset(model.features, rtl.features).foreach(f => fail(s"$name: RTL feature $f is not one of the model's (or out of order)"))
       assert(rtl.featureDrops == model.features.size - rtl.features.size, s"$name: every missing feature is counted")
       assert(rtl.featureStream.collect { case Left(e) => e } == model.frameEnds, s"$name: one frame end per frame in the feature output")
     }

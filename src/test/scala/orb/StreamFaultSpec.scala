@@ -92,11 +92,7 @@ class StreamFaultSpec extends AnyFunSuite {
     var rtl: RtlResult = null
     core.doSim("fault-while-waiting", seed.toInt) { dut => rtl = CoreSim.run(dut, beats, harrisOnly, Blanking.none, seed) }
     Scoreboard.compare("fault-while-waiting", CoreEvents.of(model), rtl.events, Some(dense)).foreach(msg => fail(msg))
-    val left = rtl.features.foldLeft(model.features.toList) { (rest, feat) =>
-      val after = rest.dropWhile(_ != feat)
-      assert(after.nonEmpty, s"RTL feature $feat is not one of the model's (or out of order)")
-      after.tail
-    }
+    Scoreboard.notAnOrderedSubset(model.features, rtl.features).foreach(f => fail(s"RTL feature $f is not one of the model's (or out of order)"))
     assert(rtl.features.size + rtl.featureDrops == rtl.corners.size, "every corner is a feature or a counted drop")
     assert(rtl.featureDrops > 0 && rtl.counters.badFrames == 1)
     println(s"[orb] fault-while-waiting: ${rtl.corners.size} corners, ${rtl.features.size} features, ${rtl.featureDrops} counted drops")

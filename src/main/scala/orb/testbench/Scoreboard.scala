@@ -8,6 +8,13 @@ import java.io.{File, PrintWriter}
 object Scoreboard {
   val dumpDir = new File("target/test-failures")
 
+  /** When the hardware may drop items (counted), what it emitted must be the model's sequence with some left out:
+    * the first emitted item that is not the model's next (out of order, or not the model's at all), if any. */
+  def notAnOrderedSubset[T](model: Seq[T], emitted: Seq[T]): Option[T] = {
+    var rest = model.toList
+    emitted.find { e => rest = rest.dropWhile(_ != e); val missing = rest.isEmpty; if (!missing) rest = rest.tail; missing }
+  }
+
   def compare(name: String, model: Seq[CoreEvent], rtl: Seq[CoreEvent], image: Option[GrayImage] = None): Option[String] = {
     if (model == rtl) return None
     val firstDiff = model.zipAll(rtl, null, null).indexWhere { case (a, b) => a != b }

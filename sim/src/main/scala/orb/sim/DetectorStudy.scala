@@ -2,8 +2,6 @@ package orb.sim
 
 import orb._
 import orb.model._
-import org.bytedeco.opencv.opencv_core.KeyPointVector
-import org.bytedeco.opencv.opencv_features2d.FastFeatureDetector
 
 /** `sim/runMain orb.sim.DetectorStudy [--key A.png --live B.png --homography H.txt] [--threshold T]`: which corner
   * points match best on a pair with ground truth. Every variant's points go through the same descriptor model,
@@ -29,10 +27,8 @@ object DetectorStudy {
   /** OpenCV's FAST-9 corners (its suppression on the FAST score), the `n` with the highest score of ours. */
   def fastRanked(img: GrayImage, n: Int, t: Int): Seq[Corner] = {
     val score = HarrisModel.score(HarrisModel.responseMap(img, cfg.harris), cfg.harris)
-    val kp = new KeyPointVector()
-    FastFeatureDetector.create(t, true, FastFeatureDetector.TYPE_9_16).detect(OpenCv.toMat(img), kp)
     val b = cfg.harris.border
-    (0 until kp.size.toInt).map { i => val q = kp.get(i.toLong).pt(); (math.round(q.x), math.round(q.y)) }
+    OpenCv.fast(img, t, suppress = true)
       .filter { case (x, y) => x >= b && y >= b && x < img.width - b && y < img.height - b }
       .map { case (x, y) => Corner(x, y, score(x, y)) }.sortBy(c => (-c.score, c.y, c.x)).take(n).sortBy(c => (c.y, c.x))
   }

@@ -94,13 +94,4 @@ object HarrisFidelity {
     println(header)
     for (f <- o.images) println(row(measure(new java.io.File(f).getName, cli.load(f), cfg, o.threshold)))
   }
-
-  /** Every pixel OpenCV's FAST-9 test passes at threshold t (its non-maximum suppression off). */
-  def openCvFast(img: GrayImage, t: Int): Set[(Int, Int)] = {
-    import org.bytedeco.opencv.opencv_core.KeyPointVector
-    import org.bytedeco.opencv.opencv_features2d.FastFeatureDetector
-    val kp = new KeyPointVector()
-    FastFeatureDetector.create(t, false, FastFeatureDetector.TYPE_9_16).detect(OpenCv.toMat(img), kp)
-    (0 until kp.size.toInt).map { i => val p = kp.get(i.toLong).pt(); (math.round(p.x), math.round(p.y)) }.toSet
-  }
 }

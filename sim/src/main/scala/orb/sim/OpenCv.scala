@@ -4,7 +4,8 @@ import orb.model.GrayImage
 import org.bytedeco.javacpp.indexer.{DoubleIndexer, UByteIndexer}
 import org.bytedeco.opencv.global.opencv_core._
 import org.bytedeco.opencv.global.opencv_imgproc._
-import org.bytedeco.opencv.opencv_core.{Mat, Point}
+import org.bytedeco.opencv.opencv_core.{KeyPointVector, Mat, Point}
+import org.bytedeco.opencv.opencv_features2d.FastFeatureDetector
 
 /** Small bridges between our images and OpenCV matrices. */
 object OpenCv {
@@ -48,6 +49,13 @@ object OpenCv {
     val d = new Mat(); val k = row(kernel)
     sepFilter2D(src, d, CV_64F, k, k, new Point(-1, -1), 0.0, BORDER_DEFAULT); d
   }
+  /** OpenCV's FAST-9 corners at threshold t, with or without its suppression on the FAST score. */
+  def fast(img: GrayImage, t: Int, suppress: Boolean): Seq[(Int, Int)] = {
+    val kp = new KeyPointVector()
+    FastFeatureDetector.create(t, suppress, FastFeatureDetector.TYPE_9_16).detect(toMat(img), kp)
+    (0 until kp.size.toInt).map { i => val p = kp.get(i.toLong).pt(); (math.round(p.x), math.round(p.y)) }
+  }
+
   /** OpenCV's own Harris (box window of `block` pixels); response in its own units. */
   def cornerHarrisMap(src: Mat, block: Int, k: Double): Array[Double] = {
     val d = new Mat(); cornerHarris(src, d, block, 3, k, BORDER_DEFAULT)

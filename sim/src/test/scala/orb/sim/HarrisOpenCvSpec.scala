@@ -36,7 +36,7 @@ class HarrisOpenCvSpec extends AnyFunSuite {
       val img = GrayImage.load(new java.io.File("data", name))
       val ours = HarrisModel.segmentTest(img, t, 9)
       val mine = (for (y <- 0 until img.height; x <- 0 until img.width if ours(x, y)) yield (x, y)).toSet
-      val theirs = HarrisFidelity.openCvFast(img, t)
+      val theirs = OpenCv.fast(img, t, suppress = false).toSet
       println(s"[orb] segment test $name t=$t: ${mine.size} pixels pass, OpenCV FAST ${theirs.size}")
       assert(mine.size > 500 && mine == theirs, s"$name t=$t: ${(mine -- theirs).take(3)} only ours, ${(theirs -- mine).take(3)} only OpenCV's")
     }
