@@ -50,7 +50,7 @@ case class HarrisConfig(
     scoreShift: Int = 7,
     border: Int = 22,
     segment: Option[SegmentTestConfig] = Some(SegmentTestConfig()),
-    defaultThreshold: Long = 1L << 14
+    defaultThreshold: Long = 1L << 8
 ) {
   import HarrisConfig._
   require(kNum > 0 && kShift >= 0 && kNum < (1 << kShift), "k = kNum / 2^kShift must lie in (0, 1)")
@@ -103,13 +103,68 @@ object HarrisConfig {
   def bitsSigned(maxAbs: BigInt): Int = maxAbs.bitLength + 1
 }
 
-/** Run-time parameters of the corner detector (registers of `OrbTop`).
-  * @param threshold        a candidate is a corner when its Harris score exceeds this
+/** Run-time parameters of the corner detector and the feature budget (registers of `OrbTop`).
+  * @param threshold        a candidate is a corner when its Harris score exceeds this (the budget's minimum score)
   * @param segmentThreshold the segment test's intensity threshold t, or None for no segment test (every pixel a
-  *                         candidate: pure Harris maxima) */
-final case class CornerParams(threshold: Long, segmentThreshold: Option[Int]) {
+  *                         candidate: pure Harris maxima)
+  * @param target           the feature budget: features per frame (see `BudgetConfig`) */
+final case class CornerParams(threshold: Long, segmentThreshold: Option[Int], target: Int = BudgetConfig().defaultTarget) {
   require(threshold >= 0 && threshold <= 0xffffffffL, "the Harris threshold is a 32-bit register")
   require(segmentThreshold.forall(t => t >= 0 && t <= 255), "the segment threshold is 0..255")
+  require(target >= 0 && target <= BudgetConfig.targetMax, s"the target is 0..${BudgetConfig.targetMax}")
+}
+
+/** The feature budget: which corners become features, so that every frame gives a bounded, spread set of the
+  * strongest corners and the engines behind it can never fall behind, whatever the input.
+  *
+  * Rule (`orb.model.BudgetModel` is its specification):
+  *  1. Cells. The frame is cut into cells of `cellWidth` columns x `cellHeight` rows (aligned to x = 0, y = 0);
+  *     of the corners of a cell only the `perCell` strongest survive (the first in raster order on ties). This
+  *     bounds the density by construction, so that the descriptor engines and the matcher serve every survivor at
+  *     one pixel per clock for any line length and no blanking at all (`OrbConfig.budgetService` checks it for
+  *     every line length; lines too short for `perCell` get fewer per cell, `OrbConfig.perCellFor`).
+  *  2. Frame target. The cell winners are ranked in score levels (`levelFracBits` fraction bits of log2 score:
+  *     quarter octaves by default). From the winners' level histogram of a good frame the core takes for the next
+  *     frame the cut level L and remainder r that give exactly `target` features: every winner above level L, the
+  *     first r in raster order at level L. A frame never gets more than `target` features (winners past it are
+  *     deselected); with no history (after reset) the first `target` winners in raster order are taken.
+  * So a still scene gives exactly min(target, winners) features from its second frame on; in video the cut
+  * follows the scene one frame late. A corner that does not become a feature is deselected and counted.
+  *
+  * Why these cells: a cell must be complete (its last corner detected, `HarrisConfig.reach` rows later) before
+  * the orientation of its first row starts (row y + 15, the raw buffer's 31 rows), so at most 8 rows tall; the
+  * engines' slack of 8 rows then allows about one corner per 256 pixels, and 4 rows by 256 columns with 4 corners
+  * each gives that with room, lets corners cluster (texture is rarely even) and needs at most 8 orientation slots
+  * (a row's corners within 31 columns come from two cells at most).
+  *
+  * @param defaultTarget the target after reset: 500, OpenCV's `nfeatures` default, below the keyframe store's
+  *                      512 entries so that a keyframe is always stored whole */
+case class BudgetConfig(cellWidth: Int = 256, cellHeight: Int = 4, perCell: Int = 4, levelFracBits: Int = 2,
+                        defaultTarget: Int = 500) {
+  require(isPow2(cellWidth) && isPow2(cellHeight), "cells are powers of two wide and tall")
+  require(cellWidth >= 2 * OrbDescriptorConfig.patchRadius + 1,
+    "cells at least 31 px wide: a row's corners within 31 columns then come from two cells at most")
+  require(cellHeight + HarrisConfig.reach + 1 <= OrbDescriptorConfig.patchRadius - 1,
+    "a cell must be complete before the orientation of its first row starts (row y + 15)")
+  require(perCell >= 1 && perCell <= 16)
+  require(levelFracBits >= 0 && levelFracBits <= 4)
+  require(defaultTarget >= 0 && defaultTarget <= BudgetConfig.targetMax)
+  def cellShift: Int = log2Up(cellWidth)
+  def bandShift: Int = log2Up(cellHeight)
+  def cellsPerRow(maxWidth: Int): Int = (maxWidth + cellWidth - 1) / cellWidth
+  /** A band's winners are final when the first pixel of this row (relative to the band's end) is processed: its
+    * last corner leaves the detector `reach` rows later, and one row more covers the detector's latency. */
+  def emitRowOffset: Int = HarrisConfig.reach + 1
+  def levels(scoreWidth: Int): Int = scoreWidth << levelFracBits
+  def levelWidth(scoreWidth: Int): Int = log2Up(levels(scoreWidth))
+  /** Cells of width W whose columns meet the corners' columns [border, W - 1 - border]. */
+  def cellsWithCorners(width: Int, border: Int): Int =
+    if (width < 2 * border + 1) 0 else (width - 1 - border) / cellWidth - border / cellWidth + 1
+}
+
+object BudgetConfig {
+  val targetWidth: Int = 16
+  val targetMax: Int = (1 << targetWidth) - 1
 }
 
 /** OpenCV's FAST segment test as a corner candidate filter: a pixel passes when `arc` contiguous pixels of the
@@ -211,6 +266,10 @@ case class MatcherConfig(storeCapacity: Int = 512, comparators: Int = 4, popcoun
   /** clocks a live feature holds the matcher: the scan, the RAM read, the popcount, the lane register, the merge
     * levels, the accumulation, the ratio product, one to decide */
   def clocksPerFeature: Int = groups + 1 + MatcherConfig.popcountStages(this) + 1 + log2Up(comparators) + 1 + 1 + 1
+  /** an upper bound on the clocks a frame's end item holds the matcher: a live frame's cross-checked entries leave
+    * one per clock (storeCapacity), a keyframe's cross-check words are cleared one group per clock, plus the
+    * pipeline */
+  def frameEndClocks: Int = storeCapacity + groups + 32
 }
 
 object MatcherConfig {
@@ -239,7 +298,8 @@ object MatcherConfig {
 
 /** The whole core. Later stages (descriptor, store, matcher) add their blocks here. */
 case class OrbConfig(frame: FrameConfig = FrameConfig(), harris: HarrisConfig = HarrisConfig(),
-                     descriptor: OrbDescriptorConfig = OrbDescriptorConfig(), matcher: MatcherConfig = MatcherConfig()) {
+                     descriptor: OrbDescriptorConfig = OrbDescriptorConfig(), matcher: MatcherConfig = MatcherConfig(),
+                     budget: BudgetConfig = BudgetConfig()) {
   // Every sample (18 px + 3 px of blur) inside the image, and row cy + 22, where a descriptor starts, in the frame.
   require(harris.border >= OrbDescriptorConfig.startRowOffset && harris.border >= OrbDescriptorConfig.patchRadius,
     s"the border must be at least ${OrbDescriptorConfig.startRowOffset}: a corner's descriptor starts at row y + 22")
@@ -247,6 +307,62 @@ case class OrbConfig(frame: FrameConfig = FrameConfig(), harris: HarrisConfig = 
     * disc, 31 rows; Harris reads the newest 9, the smoother the newest 7). */
   def rawRows: Int = HarrisConfig.rawRows max (2 * OrbDescriptorConfig.patchRadius + 1)
   def maxWidth: Int = frame.maxWidth
+
+  // The feature budget's cells against what the stages behind them can serve (see `budgetService`).
+  require(harris.border >= budget.cellHeight + budget.emitRowOffset,
+    "every band with corners must be emitted before its frame ends")
+  require(descriptor.orientationSlots >= 2 * budget.perCell,
+    s"a row can have ${2 * budget.perCell} budget winners within 31 columns: that many orientation slots")
+  require(perCellFor(frame.maxWidth) == budget.perCell,
+    s"the stages behind the feature budget cannot serve ${budget.perCell} corners per cell in ${frame.maxWidth}-px lines: " +
+      budgetService(frame.maxWidth, budget.perCell).getOrElse(""))
+
+  /** Clocks the descriptor stage needs per feature in a busy stretch: the matcher's scan, or the engines' time
+    * shared by two engines, whichever is longer; a keyframe feature replacing a weaker entry takes less. */
+  def clocksPerFeature: Int = matcher.clocksPerFeature max ((DescriptorUnit.maxClocks(descriptor) + 1) / 2)
+
+  /** Why no corner that the budget selects can be dropped for lack of time in lines of `w` pixels with `k` corners
+    * per cell, with no blanking at all (blanking only adds time). A corner of row y is released when row y + 22
+    * starts and must be finished before `slackRows` more rows have started. Corners are served in raster order: two
+    * engines, each free again once the matcher has taken its previous feature, the matcher taking one feature per
+    * `clocksPerFeature` (S). If corners i..j (n of them) are released within rows y .. y + d, corner j is finished
+    * at most Tdesc + Tm after its own release when n <= 2 (its engine may wait for the matcher), otherwise at most
+    * 2 Tdesc + 3 + (n - 2) S after corner i's release (the matcher may still be busy when i comes). At most k
+    * corners per cell, so n <= k x cells(w) x (bands met by d + 1 rows); every band must be served within its own
+    * rows on average; and between frames the matcher also sweeps its store, which must end before the next frame's
+    * first corner is released. None when served, else why not. */
+  def budgetService(w: Int, k: Int): Option[String] = {
+    val tDesc = DescriptorUnit.maxClocks(descriptor)
+    val s = clocksPerFeature
+    val ch = budget.cellHeight
+    val slack = descriptor.slackRows
+    val perBand = k.toLong * budget.cellsWithCorners(w, harris.border)
+    val windows = (0 to 4 * ch + 2 * slack).iterator.flatMap { d =>
+      val n = perBand * ((d + ch - 1) / ch + 1)
+      val finish = if (n <= 2) tDesc + matcher.clocksPerFeature + 3L else 2L * tDesc + 3 + (n - 2) * s
+      if (finish < (d + slack).toLong * w) None
+      else Some(s"W = $w: $n budget corners in ${d + 1} rows need $finish clocks, the slack gives ${(d + slack) * w}")
+    }
+    val steady = if (perBand * s <= ch.toLong * w) None
+      else Some(s"W = $w: $perBand corners per band of $ch rows need ${perBand * s} clocks, the band has ${ch * w}")
+    val gapRows = harris.border + OrbDescriptorConfig.startRowOffset + 1 - slack
+    val between = if (matcher.frameEndClocks + 2L * s + tDesc < gapRows.toLong * w) None
+      else Some(s"W = $w: the matcher's end of frame does not fit between two frames' corners")
+    (windows ++ steady.iterator ++ between.iterator).nextOption()
+  }
+
+  /** Corners kept per cell in lines of `w` pixels: `perCell`, or fewer where the lines are too short for the engines
+    * to serve that many (`budgetService`); 0 (no feature at all) in frames too narrow even for one. */
+  def perCellFor(w: Int): Int = perCellTable.getOrElse(w, 0)
+  private lazy val perCellTable: Map[Int, Int] =
+    ((2 * harris.border + 1) to frame.maxWidth).map(w => w -> (budget.perCell to 1 by -1).find(k => budgetService(w, k).isEmpty).getOrElse(0)).toMap
+  /** Where `perCellFor` changes: (from width, corners per cell), ascending from the narrowest frame with a corner;
+    * narrower frames have none. */
+  lazy val perCellSteps: Seq[(Int, Int)] = {
+    val ws = (2 * harris.border + 1) to frame.maxWidth
+    ws.map(w => (w, perCellFor(w))).foldLeft(Vector[(Int, Int)]()) { case (acc, (w, k)) =>
+      if (acc.lastOption.forall(_._2 != k)) acc :+ (w -> k) else acc }
+  }
 }
 
 object OrbConfig {

@@ -329,3 +329,23 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
     U(collect.engineDrop).resize(f.counterWidth)
   io.dropped := drops
 }
+
+object DescriptorUnit {
+  /** Clocks a descriptor spends in the engine beyond its read issues: the front end's stages before the first
+    * issue, the read latency and the compare after the last (an upper bound). */
+  val pipelineClocks: Int = 16
+
+  /** Read issues of a bin's 256 tests: a pair (2k, 2k + 1) whose four points lie in four rows takes one clock,
+    * otherwise each test one clock, or two when its two points share a row (the engine's issue rule). */
+  def issueClocks(bin: Int, d: OrbDescriptorConfig): Int =
+    orb.model.OrbModel.rotatedTests(bin, d).grouped(2).map { case Seq(a, b) =>
+      val rows = Seq(a._2, a._4, b._2, b._4)
+      if (rows.distinct.size == 4) 1
+      else Seq(a, b).map(t => if (t._2 == t._4) 2 else 1).sum
+    }.sum
+
+  private val maxCache = scala.collection.concurrent.TrieMap[OrbDescriptorConfig, Int]()
+  /** The most clocks one engine takes for a descriptor, over all bins. */
+  def maxClocks(d: OrbDescriptorConfig): Int =
+    maxCache.getOrElseUpdate(d, (0 until d.angleBins).map(issueClocks(_, d)).max + pipelineClocks)
+}

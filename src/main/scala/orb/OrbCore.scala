@@ -5,20 +5,25 @@ import spinal.lib._
 
 case class CoreStatus(c: FrameConfig) extends Bundle {
   val frames, badFrames, badLines, corners, features = UInt(c.counterWidth bits)
-  /** corners that got no descriptor: no orientation slot, a full queue, no engine in time (also when the consumer holds the output), or
-    * a fault in their frame before their rows were complete */
+  /** corners the feature budget did not select (`BudgetConfig`'s rule) */
+  val deselected = UInt(c.counterWidth bits)
+  /** selected corners that got no descriptor: a fault in their frame before their rows were complete, or (never by
+    * design, see `OrbConfig.budgetService`; only a consumer that holds the output too long) no orientation slot, a full
+    * queue, no engine in time */
   val featureDrops = UInt(c.counterWidth bits)
 }
 
-/** The core: camera pixels in, Harris corners and ORB features out (the keyframe store and matcher come next).
+/** The core: camera pixels in, Harris corners and ORB features out (`OrbTop` adds the keyframe store and matcher).
   *
-  * pixels -> FrameTracker (1 clk) -> LineBuffer (shared raw rows, 1 clk) -+-> HarrisDetector -> corners
-  *                                                                        +-> OrientationUnit (corners + raw rows)
+  * pixels -> FrameTracker (1 clk) -> LineBuffer (shared raw rows, 1 clk) -+-> HarrisDetector -> corners -> FeatureBudget
+  *                                                                        +-> OrientationUnit (selected corners + raw rows)
   *                                                                        +-> Smoother -> DescriptorUnit -> features
   *
   * Never stalls the camera: every stage advances with valid pixels, blanking of any length (also none) passes
-  * through; only the feature output is a Stream; a consumer that waits holds the descriptor engines, and a corner that
-  * cannot wait for its engine any longer is dropped and counted. */
+  * through; only the feature output is a Stream. The feature budget bounds the corners that go on so that the
+  * orientation slots, the descriptor engines and a consumer as fast as `OrbTop`'s matcher always keep up; a consumer
+  * that waits longer holds the descriptor engines, and a corner that cannot wait for its engine any longer is dropped
+  * and counted. */
 class OrbCore(val cfg: OrbConfig = OrbConfig.default) extends Component {
   val io = new Bundle {
     val pixels = slave Flow (PixelBeat())
@@ -32,6 +37,7 @@ class OrbCore(val cfg: OrbConfig = OrbConfig.default) extends Component {
   val tracker = new FrameTracker(cfg.frame)
   val lines = new LineBuffer(cfg.frame, cfg.rawRows)
   val harris = new HarrisDetector(cfg.frame, cfg.harris, cfg.rawRows)
+  val budget = new FeatureBudget(cfg)
   val smoother = new Smoother(cfg.frame, cfg.rawRows)
   val orientation = new OrientationUnit(cfg.frame, cfg.harris, cfg.descriptor, cfg.rawRows)
   val descriptors = new DescriptorUnit(cfg.frame, cfg.harris, cfg.descriptor)
@@ -44,14 +50,20 @@ class OrbCore(val cfg: OrbConfig = OrbConfig.default) extends Component {
   io.corners << harris.io.corners
   smoother.io.columns << lines.io.columns
   orientation.io.columns << lines.io.columns
-  orientation.io.corners << harris.io.corners
+  budget.io.pixels << lines.io.columns.map(_.pixel)
+  budget.io.corners << harris.io.corners
+  budget.io.frameEnds << harris.io.frameEnds
+  budget.io.geometry := tracker.io.geometry
+  budget.io.target := io.cornerControl.target
+  orientation.io.corners << budget.io.selected
   descriptors.io.smoothed << smoother.io.smoothed
   descriptors.io.corners << orientation.io.oriented
   io.features << descriptors.io.features
   val featureCount = Reg(UInt(cfg.frame.counterWidth bits)) init 0
   when(io.features.fire && !io.features.frameEnd) { featureCount := featureCount + 1 }
   io.status.features := featureCount
-  io.status.featureDrops := orientation.io.dropped + descriptors.io.dropped
+  io.status.featureDrops := budget.io.dropped + orientation.io.dropped + descriptors.io.dropped
+  io.status.deselected := budget.io.deselected
   io.frameEnds << harris.io.frameEnds
   io.status.frames := tracker.io.counters.frames
   io.status.badFrames := tracker.io.counters.badFrames

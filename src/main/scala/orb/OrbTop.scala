@@ -10,8 +10,10 @@ import spinal.lib.bus.avalon._
   *        -> correspondence Stream (behind a FIFO; see `Matcher` for slow and stalled consumers)
   *
   * The camera is never stalled: the matcher holds the feature stream while it scans, which holds the descriptor
-  * engines; corners wait in the descriptor unit's queue, and one whose rows are gone before an engine takes it is
-  * dropped and counted (`FEATURE_DROPS`). */
+  * engines; corners wait in the descriptor unit's queue. The feature budget in the core bounds them so that no
+  * corner's rows are gone before an engine takes it (`OrbConfig.budgetService`), as long as the correspondence
+  * consumer keeps up; one that does not can make the matcher hold the features long enough to drop some
+  * (`FEATURE_DROPS`, counted). */
 class OrbTop(val cfg: OrbConfig = OrbConfig.default) extends Component {
   val io = new Bundle {
     val pixels = slave Flow (PixelBeat())
@@ -34,11 +36,13 @@ class OrbTop(val cfg: OrbConfig = OrbConfig.default) extends Component {
     val segmentTest = bus.createReadAndWrite(Bool(), CONTROL, 2) init Bool(cfg.harris.segment.isDefined)
     val harrisThreshold = bus.createReadAndWrite(UInt(32 bits), HARRIS_THRESHOLD) init cfg.harris.defaultThreshold
     val segmentThreshold = bus.createReadAndWrite(UInt(8 bits), SEGMENT_THRESHOLD) init cfg.harris.segment.fold(0)(_.defaultThreshold)
+    val target = bus.createReadAndWrite(UInt(BudgetConfig.targetWidth bits), TARGET) init cfg.budget.defaultTarget
     val hamming = bus.createReadAndWrite(UInt(MatcherConfig.distanceWidth bits), HAMMING_THRESHOLD) init m.defaultHammingThreshold
     val ratio = bus.createReadAndWrite(UInt(m.ratioWidth bits), RATIO) init m.defaultRatio
     core.io.cornerControl.threshold := harrisThreshold
     core.io.cornerControl.segmentTest := segmentTest
     core.io.cornerControl.segmentThreshold := segmentThreshold
+    core.io.cornerControl.target := target
     matcher.io.params.hammingThreshold := hamming
     matcher.io.params.ratio := ratio
     matcher.io.params.ratioTest := ratioTest
@@ -46,14 +50,14 @@ class OrbTop(val cfg: OrbConfig = OrbConfig.default) extends Component {
     val s = core.io.status; val t = matcher.io.status
     for ((value, address) <- Seq(s.frames -> FRAMES, s.badFrames -> BAD_FRAMES, s.badLines -> BAD_LINES,
       s.corners -> CORNERS, s.features -> FEATURES, s.featureDrops -> FEATURE_DROPS, t.stored -> STORED,
-      t.storeOverflow -> STORE_OVERFLOW, t.matches -> MATCHES, t.matchDrops -> MATCH_DROPS))
+      t.storeOverflow -> STORE_OVERFLOW, t.matches -> MATCHES, t.matchDrops -> MATCH_DROPS, s.deselected -> DESELECTED))
       bus.read(value, address)
   }
 }
 
 object OrbTop {
   /** "ORB" and the register map's version */
-  val id: BigInt = BigInt("4f524202", 16)
+  val id: BigInt = BigInt("4f524203", 16)
   val avalonConfig: AvalonMMConfig = AvalonMMSlaveFactory.getAvalonConfig(addressWidth = 8, dataWidth = 32)
 
   /** Byte addresses of the 32-bit registers (the README documents them). */
@@ -68,6 +72,8 @@ object OrbTop {
     val RATIO = 0x10
     /** the segment test's intensity threshold t (0..255) */
     val SEGMENT_THRESHOLD = 0x14
+    /** the feature budget's target: features per frame (0..65535) */
+    val TARGET = 0x18
     val FRAMES = 0x20
     val BAD_FRAMES = 0x24
     val BAD_LINES = 0x28
@@ -78,5 +84,7 @@ object OrbTop {
     val STORE_OVERFLOW = 0x3c
     val MATCHES = 0x40
     val MATCH_DROPS = 0x44
+    /** corners the feature budget did not select */
+    val DESELECTED = 0x48
   }
 }

@@ -53,4 +53,6 @@ case class CornerControl() extends Bundle {
   /** only pixels that pass the segment test are candidates (ignored without `HarrisConfig.segment`) */
   val segmentTest = Bool()
   val segmentThreshold = UInt(8 bits)
+  /** the feature budget's target: features per frame */
+  val target = UInt(BudgetConfig.targetWidth bits)
 }

@@ -22,11 +22,12 @@ class OrbTopSpec extends AnyFunSuite {
     finally w.close()
   }
 
-  def check(name: String, key: GrayImage, live: GrayImage, p: MatchParams, blanking: Blanking, ready: Double): (SystemModel.Result, TopResult) = {
+  def check(name: String, key: GrayImage, live: GrayImage, p: MatchParams, blanking: Blanking, ready: Double,
+            corners: CornerParams = cornerParams): (SystemModel.Result, TopResult) = {
     val beats = SystemModel.pairBeats(key, live)
-    val model = SystemModel.run(config, beats, cornerParams, p)
+    val model = SystemModel.run(config, beats, corners, p)
     var rtl: TopResult = null
-    top.doSim(name, seed.toInt) { dut => rtl = TopSim.run(dut, config, beats, cornerParams, p, blanking, ready, rng(name).nextLong()) }
+    top.doSim(name, seed.toInt) { dut => rtl = TopSim.run(dut, config, beats, corners, p, blanking, ready, rng(name).nextLong()) }
     val fd = model.core.featureStream.zipAll(rtl.featureStream, null, null).indexWhere { case (a, b) => a != b }
     assert(fd < 0, s"$name: feature stream item $fd: model ${model.core.featureStream.lift(fd)} vs RTL ${rtl.featureStream.lift(fd)}")
     if (model.correspondences != rtl.correspondences) {
@@ -39,19 +40,40 @@ class OrbTopSpec extends AnyFunSuite {
     val r = rtl.registers
     val c = model.core
     assert(r("frames") == c.counters.frames && r("bad_frames") == c.counters.badFrames && r("bad_lines") == c.counters.badLines)
-    assert(r("corners") == c.cornerCount && r("features") == c.features.size && r("feature_drops") == 0)
+    assert(r("corners") == c.cornerCount && r("features") == c.features.size && r("feature_drops") == 0 && r("deselected") == c.deselected)
     assert(r("stored") == model.matches.store.features.size && r("store_overflow") == model.matches.overflow)
     assert(r("matches") == model.correspondences.size && r("match_drops") == 0)
-    println(f"[orb] $name%-40s ${c.features.size} features, ${model.matches.store.features.size} stored " +
+    println(f"[orb] $name%-40s ${c.cornerCount} corners, ${c.deselected} deselected, ${c.features.size} features, ${model.matches.store.features.size} stored " +
       f"(${model.matches.overflow} over), ${rtl.correspondences.size} correspondences, ${rtl.cycles} clocks")
     (model, rtl)
   }
 
-  test("graf1 -> graf3 at full size (800x640): random blanking, consumer ready 30% of clocks, cross-check, store overflow") {
+  test("graf1 -> graf3 at full size (800x640): random blanking, consumer ready 30% of clocks, cross-check") {
     val (model, _) = check("graf1-graf3 full", image("graf1.png"), image("graf3.png"),
       MatchParams(hammingThreshold = config.matcher.defaultHammingThreshold, crossCheck = true), Blanking.random, ready = 0.3)
-    assert(model.matches.overflow > 0, "graf1 has more features than the store")
-    assert(model.correspondences.size > 50)
+    assert(model.matches.overflow == 0 && model.matches.store.features.size == config.budget.defaultTarget,
+      "the budget's target fits the store: the keyframe is stored whole")
+    assert(model.lastLive.size > 50)
+  }
+
+  test("dense real textures at full size, no blanking at all: baboon, starry_night (the matcher in the loop)") {
+    val p = MatchParams(hammingThreshold = config.matcher.defaultHammingThreshold, crossCheck = true)
+    for (name <- Seq("baboon.png", "starry_night.png")) {
+      val img = image(name)
+      val (model, _) = check(s"dense $name", img, img, p, Blanking.none, ready = 1.0)
+      assert(model.core.deselected > model.core.features.size && model.lastLive.size > 100)
+    }
+  }
+
+  test("a flood with no frame target, no blanking: the cells alone keep the matcher and the engines in time") {
+    // 4-px checkerboard crossings (pure Harris maxima): every cell full in every band; without cross-check every
+    // live feature is scanned and answered at once
+    val unbounded = harrisOnly.copy(target = BudgetConfig.targetMax)
+    for (w <- Seq(100, 1024)) {
+      val flood = Patterns.checkerboard(w, 120, 4)
+      val (model, _) = check(s"flood $w", flood, flood, MatchParams(hammingThreshold = 256), Blanking.none, ready = 1.0, corners = unbounded)
+      assert(model.core.features.size > 100)
+    }
   }
 
   test("crops of different sizes: the geometry is relearnt; ratio test without cross-check, blanking of a camera") {
@@ -66,10 +88,10 @@ class OrbTopSpec extends AnyFunSuite {
   test("registers: ID, read back of every parameter") {
     import OrbTop.Registers._
     top.doSim("registers", seed.toInt) { dut =>
-      val (bus, _) = TopSim.start(dut, CornerParams(12345, Some(37)), MatchParams(hammingThreshold = 77, ratio = Some(200), crossCheck = true), 1.0, rng("regs"))
+      val (bus, _) = TopSim.start(dut, CornerParams(12345, Some(37), 321), MatchParams(hammingThreshold = 77, ratio = Some(200), crossCheck = true), 1.0, rng("regs"))
       assert(bus.read(ID) == OrbTop.id.toLong)
       assert(bus.read(HARRIS_THRESHOLD) == 12345 && bus.read(SEGMENT_THRESHOLD) == 37 && bus.read(HAMMING_THRESHOLD) == 77 &&
-        bus.read(RATIO) == 200 && bus.read(CONTROL) == 7)
+        bus.read(RATIO) == 200 && bus.read(CONTROL) == 7 && bus.read(TARGET) == 321 && bus.read(DESELECTED) == 0)
       bus.write(CONTROL, 0)
       assert(bus.read(CONTROL) == 0 && bus.read(FRAMES) == 0 && bus.read(STORED) == 0)
     }

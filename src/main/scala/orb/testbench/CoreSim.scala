@@ -28,7 +28,8 @@ final case class CornerEvent(c: Corner) extends CoreEvent
 final case class FrameEndEvent(e: FrameEnd) extends CoreEvent
 
 final case class RtlResult(events: Seq[CoreEvent], counters: FrameCounters, cornerCount: Long, cycles: Long,
-                           featureStream: Seq[Either[FrameEnd, Feature]], featureCount: Long, featureDrops: Long) {
+                           featureStream: Seq[Either[FrameEnd, Feature]], featureCount: Long, featureDrops: Long,
+                           deselected: Long) {
   def features: Seq[Feature] = featureStream.collect { case Right(f) => f }
   def corners: Seq[Corner] = events.collect { case CornerEvent(c) => c }
   def frameEnds: Seq[FrameEnd] = events.collect { case FrameEndEvent(e) => e }
@@ -74,6 +75,7 @@ object CoreSim {
     c.threshold #= p.threshold
     c.segmentTest #= p.segmentThreshold.isDefined
     c.segmentThreshold #= p.segmentThreshold.fold(0L)(_.toLong)
+    c.target #= p.target
   }
 
   /** Clock and reset for any block with a pixel port: defined inputs first, as Verilator 5 needs. */
@@ -149,7 +151,7 @@ object CoreSim {
   /** What the monitor saw, with the core's counters now. */
   def result(dut: OrbCore, monitor: Monitor): RtlResult =
     RtlResult(monitor.events.toSeq, counters(dut), dut.io.status.corners.toLong, monitor.cycles, monitor.featureStream.toSeq,
-      dut.io.status.features.toLong, dut.io.status.featureDrops.toLong)
+      dut.io.status.features.toLong, dut.io.status.featureDrops.toLong, dut.io.status.deselected.toLong)
 
   /** One complete run from reset: returns what the core emitted and its counters. */
   def run(dut: OrbCore, beats: Seq[Beat], p: CornerParams, blanking: Blanking, seed: Long): RtlResult = {

@@ -30,6 +30,21 @@ object Scoreboard {
       s"model ${model.lift(firstDiff).getOrElse("-")} vs RTL ${rtl.lift(firstDiff).getOrElse("-")}; dumped to ${dir.getPath}")
   }
 
+  /** Both feature lists as CSV (x, y, bin, score, descriptor) under `dumpDir/name/`, with the picture of their
+    * positions when the image is given; returns the directory. */
+  def dumpFeatures(name: String, model: Seq[Feature], rtl: Seq[Feature], image: Option[GrayImage] = None): File = {
+    val dir = new File(dumpDir, name.replaceAll("[^A-Za-z0-9_.-]+", "_"))
+    dir.mkdirs()
+    for ((file, fs) <- Seq("model_features.csv" -> model, "rtl_features.csv" -> rtl)) {
+      val w = new PrintWriter(new File(dir, file))
+      try { w.println("x,y,bin,score,descriptor"); fs.foreach(f => w.println(s"${f.x},${f.y},${f.bin},${f.score},${f.hex}")) }
+      finally w.close()
+    }
+    def corners(fs: Seq[Feature]) = fs.map(f => Corner(f.x, f.y, f.score))
+    image.foreach(img => Draw.corners(img, corners(model), corners(rtl)).foreach(javax.imageio.ImageIO.write(_, "png", new File(dir, "features.png"))))
+    dir
+  }
+
   def writeCsv(f: File, events: Seq[CoreEvent]): Unit = {
     val w = new PrintWriter(f)
     try {

@@ -30,7 +30,7 @@ object TopSim {
     import OrbTop.Registers._
     Seq("frames" -> FRAMES, "bad_frames" -> BAD_FRAMES, "bad_lines" -> BAD_LINES, "corners" -> CORNERS,
       "features" -> FEATURES, "feature_drops" -> FEATURE_DROPS, "stored" -> STORED, "store_overflow" -> STORE_OVERFLOW,
-      "matches" -> MATCHES, "match_drops" -> MATCH_DROPS)
+      "matches" -> MATCHES, "match_drops" -> MATCH_DROPS, "deselected" -> DESELECTED)
   }
 
   /** OrbTop with the internal signals the monitor and the tracer read made visible to the simulator. */
@@ -113,6 +113,7 @@ object TopSim {
     require(bus.read(ID) == OrbTop.id.toLong, "OrbTop's ID register")
     bus.write(HARRIS_THRESHOLD, corners.threshold)
     bus.write(SEGMENT_THRESHOLD, corners.segmentThreshold.getOrElse(0).toLong)
+    bus.write(TARGET, corners.target.toLong)
     bus.write(HAMMING_THRESHOLD, p.hammingThreshold)
     bus.write(RATIO, p.ratio.getOrElse(0).toLong)
     bus.write(CONTROL, (if (p.ratio.isDefined) 1 else 0) | (if (p.crossCheck) 2 else 0) | (if (corners.segmentThreshold.isDefined) 4 else 0))

@@ -33,7 +33,7 @@ object Evaluate {
   def ours(name: String, key: GrayImage, live: GrayImage, h: Array[Double], cfg: OrbConfig, corners: CornerParams, p: MatchParams): (Series, Int, Int) = {
     val r = SystemModel.run(cfg, SystemModel.pairBeats(key, live), corners, p.copy(hammingThreshold = 256))
     val liveCount = SystemModel.keyAndLive(r.matches)._2.size
-    (Series(name, r.correspondences.map(c => (c.distance, Homography.error(h, c))).sortBy(_._1)), r.matches.store.features.size, liveCount)
+    (Series(name, r.lastLive.map(c => (c.distance, Homography.error(h, c))).sortBy(_._1)), r.matches.store.features.size, liveCount)
   }
 
   /** OpenCV ORB with `keyFeatures` / `liveFeatures` features (its best by Harris score), BFMatcher cross-check. */

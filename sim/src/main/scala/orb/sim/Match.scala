@@ -117,7 +117,7 @@ object Match {
       "corners" -> c.cornerCount, "features" -> c.features.size.toLong, "feature_drops" -> 0L,
       "stored" -> r.matches.store.features.size.toLong, "store_overflow" -> r.matches.overflow,
       "matches" -> r.correspondences.size.toLong, "match_drops" -> 0L)
-    Outcome(c.featureStream, r.correspondences, counters, None, beats.size.toLong, None)
+    Outcome(c.featureStream, r.lastLive, counters, None, beats.size.toLong, None)
   }
 
   def runRtl(o: Options, beats: Seq[Beat], live: GrayImage, dir: File): Outcome = {

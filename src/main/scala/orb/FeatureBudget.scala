@@ -1,0 +1,247 @@
+package orb
+
+import spinal.core._
+import spinal.lib._
+
+/** The feature budget between the corner detector and the orientation unit: which corners become features
+  * (`BudgetConfig` states the rule, `orb.model.BudgetModel` is its specification).
+  *
+  * Cells: the corners of a band of `cellHeight` rows go into one of two banks (bands alternate), one list per cell
+  * of its `perCell` strongest so far, sorted by score (first in raster order on ties); a corner that does not make
+  * its cell's list, or that one pushes out, is deselected at once. When the first pixel of row
+  * (band end + `emitRowOffset`) is processed, the band is complete: its lists leave, one winner per clock, in raster
+  * order (the smallest row offset, then column, of what is left), and the bank is empty again long before the band
+  * two later needs it. Each winner's score level goes into the frame's histogram and is checked against the cut and
+  * the frame's target; it leaves on `selected` or is deselected.
+  *
+  * Frame end (after the frame's corners): winners still in a bank (a fault cut their band) are counted as dropped;
+  * after a good frame the histogram is walked from the top level down, one level per clock, to find the next cut.
+  *
+  * Frames are told apart by their ends only: no corner of a frame arrives before the previous frame's end has been
+  * handled (the first corners come 22 rows into a frame). */
+class FeatureBudget(cfg: OrbConfig) extends Component {
+  val f = cfg.frame
+  val h = cfg.harris
+  val b = cfg.budget
+  val io = new Bundle {
+    val pixels = slave Flow (TrackedPixel(f))
+    val corners = slave Flow (HarrisCorner(f, h))
+    val frameEnds = slave Flow (FrameEndInfo())
+    val geometry = in(FrameGeometry(f))
+    val target = in UInt (BudgetConfig.targetWidth bits)
+    val selected = master Flow (HarrisCorner(f, h))
+    val deselected = out UInt (f.counterWidth bits)
+    val dropped = out UInt (f.counterWidth bits)
+  }
+  val cells = b.cellsPerRow(f.maxWidth)
+  val k = b.perCell
+  val levels = b.levels(h.scoreWidth)
+  val levelWidth = b.levelWidth(h.scoreWidth)
+  val maxWinners = k * cells * ((f.maxHeight + b.cellHeight - 1) / b.cellHeight)
+  val countWidth = log2Up(maxWinners + 1)
+
+  case class Entry() extends Bundle {
+    val valid = Bool()
+    val xOffset = UInt(b.cellShift bits)
+    val yOffset = UInt(b.bandShift bits)
+    val score = UInt(h.scoreWidth bits)
+  }
+  def emptyEntry: Entry = {
+    val e = Entry()
+    e.valid := False
+    e.xOffset := 0
+    e.yOffset := 0
+    e.score := 0
+    e
+  }
+
+  /** Corners kept per cell in this frame's line length: `OrbConfig.perCellFor`, from its steps. */
+  val perCell = new Area {
+    val width = io.geometry.width
+    val now = UInt(log2Up(k + 1) bits)
+    now := 0
+    for ((from, n) <- cfg.perCellSteps) when(width >= from) { now := n }
+    val value = RegNext(now) init 0
+  }
+
+  val banks = Vec.fill(2)(Vec.fill(cells)(Vec.fill(k)(Reg(Entry()))))
+  for (bank <- banks; cell <- bank; e <- cell) e.valid.init(False)
+
+  // A corner into its cell's list: `ahead` (valid and at least as strong) is a prefix of the sorted list.
+  val intake = new Area {
+    val c = io.corners
+    val bank = (c.y >> b.bandShift).resize(1)
+    val cellIndex = (c.x >> b.cellShift).resize(log2Up(cells max 2))
+    val list = banks(bank)(cellIndex)
+    val fresh = Entry()
+    fresh.valid := True
+    fresh.xOffset := c.x.resize(b.cellShift)
+    fresh.yOffset := c.y.resize(b.bandShift)
+    fresh.score := c.score
+    val inList = Vec((0 until k).map(i => U(i) < perCell.value))
+    val ahead = Vec((0 until k).map(i => list(i).valid && list(i).score >= c.score && inList(i)))
+    val full = (0 until k).map(i => !inList(i) || list(i).valid).andR
+    // Entries ahead of the corner stay, the corner takes the first place after them, the rest move down one.
+    val updated = Vec((0 until k).map { i =>
+      val e = Entry()
+      if (i == 0) e := fresh
+      else {
+        e := list(i - 1)
+        when(ahead(i - 1)) { e := fresh }
+      }
+      when(ahead(i)) { e := list(i) }
+      when(!inList(i)) { e := emptyEntry }
+      e
+    })
+    // The list keeps k entries: the corner itself, or the weakest entry it pushes out, is deselected.
+    val deselect = c.valid && full
+    when(c.valid) { list := updated }
+  }
+
+  // A band is complete at the first pixel of row (band end + emitRowOffset); its winners leave in raster order.
+  val emission = new Area {
+    val p = io.pixels
+    val y = p.y
+    val rowStart = p.valid && p.x === 0 && p.active
+    val sinceEnd = y - b.emitRowOffset
+    val trigger = rowStart && y >= b.cellHeight + b.emitRowOffset && sinceEnd.resize(b.bandShift) === 0
+    val busy = Reg(Bool()) init False
+    val bank = Reg(UInt(1 bits)) init 0
+    val bandY = Reg(UInt(f.coordWidth bits)) init 0
+    when(trigger) {
+      busy := True
+      bank := ((sinceEnd >> b.bandShift) - 1).resize(1)
+      bandY := (((sinceEnd >> b.bandShift) - 1) << b.bandShift).resize(f.coordWidth)
+    }
+    // The winner that comes first in raster order: row offset, then cell, then column.
+    val entries = banks(bank).zipWithIndex.flatMap { case (list, cell) => list.map(e => (e, U(cell, log2Up(cells max 2) bits))) }
+    case class Candidate() extends Bundle {
+      val valid = Bool()
+      val key = UInt(b.bandShift + log2Up(cells max 2) + b.cellShift bits)
+      val index = UInt(log2Up(entries.size max 2) bits)
+      val score = UInt(h.scoreWidth bits)
+    }
+    val candidates = entries.zipWithIndex.map { case ((e, cell), i) =>
+      val cand = Candidate()
+      cand.valid := e.valid
+      cand.key := e.yOffset @@ cell @@ e.xOffset
+      cand.index := i
+      cand.score := e.score
+      cand
+    }
+    val first = candidates.reduceBalancedTree { (l, r) =>
+      Mux(l.valid && (!r.valid || l.key <= r.key), l, r)
+    }
+    val out = Flow(HarrisCorner(f, h))
+    out.valid := busy && first.valid
+    out.x := ((first.key.resize(log2Up(cells max 2) + b.cellShift)).resize(f.coordWidth))
+    out.y := bandY + first.key(first.key.getWidth - 1 downto first.key.getWidth - b.bandShift).resize(f.coordWidth)
+    out.score := first.score
+    when(busy) {
+      when(first.valid) {
+        for ((e, i) <- entries.map(_._1).zipWithIndex) when(first.index === i) { e.valid := False }
+      } otherwise {
+        busy := False
+      }
+    }
+  }
+
+  // The frame's histogram of winner levels, the cut from the last good frame, the frame's counts.
+  val cut = new Area {
+    val level = Reg(UInt(levelWidth bits)) init 0
+    val remainder = Reg(UInt(BudgetConfig.targetWidth bits)) init 0
+    val history = Reg(Bool()) init False
+    val taken = Reg(UInt(BudgetConfig.targetWidth + 1 bits)) init 0
+    val atCut = Reg(UInt(BudgetConfig.targetWidth + 1 bits)) init 0
+    val histogram = Vec.fill(levels)(Reg(UInt(countWidth bits)) init 0)
+  }
+
+  /** floor(log2(score) * 2^levelFracBits): the leading one's position and the bits after it. */
+  def levelOf(score: UInt): UInt = {
+    val lead = UInt(log2Up(h.scoreWidth) bits)
+    lead := 0
+    for (i <- 0 until h.scoreWidth) when(score(i)) { lead := i }
+    val fb = b.levelFracBits
+    if (fb == 0) lead.resize(levelWidth)
+    else {
+      val frac = ((score @@ U(0, fb bits)) >> lead).resize(fb)
+      (lead @@ frac).resize(levelWidth)
+    }
+  }
+
+  // Winners, a clock after they leave the bank (with their level), against the cut and the target.
+  val decide = new Area {
+    val winner = emission.out.stage()
+    val level = RegNext(levelOf(emission.out.score))
+    val target = io.target
+    val inCut = !cut.history || level > cut.level || (level === cut.level && cut.atCut < cut.remainder)
+    val take = winner.valid && cut.taken < target && inCut
+    val deselect = winner.valid && !take
+    when(winner.valid) { cut.histogram(level) := cut.histogram(level) + 1 }
+    when(take) {
+      cut.taken := cut.taken + 1
+      when(cut.history && level === cut.level) { cut.atCut := cut.atCut + 1 }
+    }
+    io.selected.valid := RegNext(take) init False
+    io.selected.payload := RegNext(winner.payload)
+  }
+
+  object Phase extends SpinalEnum {
+    val run, scan = newElement()
+  }
+  // A frame's end (a clock late, after any corner of the same clock): drop what a fault left in the banks, then
+  // walk the histogram for the next cut (after a good frame) or just empty it.
+  val frameEnd = new Area {
+    val end = io.frameEnds.stage()
+    val phase = RegInit(Phase.run)
+    val good = Reg(Bool()) init False
+    val left = Reg(UInt(levelWidth bits)) init 0
+    val above = Reg(UInt(countWidth + 1 bits)) init 0
+    val found = Reg(Bool()) init False
+    val leftover = CountOne(banks.flatMap(_.flatMap(_.map(_.valid))))
+    val dropped = end.valid ? leftover.resize(f.counterWidth) | U(0, f.counterWidth bits)
+    when(end.valid) {
+      for (bank <- banks; cell <- bank; e <- cell) e.valid := False
+      phase := Phase.scan
+      good := end.ok
+      left := levels - 1
+      above := 0
+      found := False
+    }
+    val top = cut.histogram(levels - 1)
+    val total = above + top
+    when(phase === Phase.scan) {
+      // the histogram shifts up: the level being looked at is always the top register
+      for (i <- levels - 1 downto 1) cut.histogram(i) := cut.histogram(i - 1)
+      cut.histogram(0) := 0
+      when(good && !found && total >= io.target) {
+        found := True
+        cut.level := left
+        cut.remainder := (io.target - above).resize(BudgetConfig.targetWidth)
+      }
+      above := total.resize(above.getWidth)
+      left := left - 1
+      when(left === 0) {
+        phase := Phase.run
+        cut.taken := 0
+        cut.atCut := 0
+        when(good) {
+          cut.history := True
+          when(!(found || total >= io.target)) {
+            cut.level := 0
+            cut.remainder := io.target
+          }
+        }
+      }
+    }
+  }
+
+  val counters = new Area {
+    val deselected = Reg(UInt(f.counterWidth bits)) init 0
+    val dropped = Reg(UInt(f.counterWidth bits)) init 0
+    deselected := deselected + U(intake.deselect).resize(f.counterWidth) + U(decide.deselect).resize(f.counterWidth)
+    dropped := dropped + frameEnd.dropped
+  }
+  io.deselected := counters.deselected
+  io.dropped := counters.dropped
+}

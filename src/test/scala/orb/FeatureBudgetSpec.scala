@@ -1,0 +1,73 @@
+package orb
+
+import orb.model._
+import orb.testbench._
+import org.scalatest.funsuite.AnyFunSuite
+import spinal.core.sim._
+
+/** The feature budget (RTL == model, and the rule itself): every selected corner gets its feature on any input, with
+  * no blanking at all; deselection counted; the frame target met exactly on a still scene. */
+class FeatureBudgetSpec extends AnyFunSuite {
+  import TestSupport._
+
+  /** RTL against the model over a run of frames: corners, feature stream, counters; no drop of any kind. */
+  def check(name: String, frames: Seq[GrayImage], p: CornerParams = cornerParams, blanking: Blanking = Blanking.none): (CoreResult, RtlResult) = {
+    val beats = frames.flatMap(Beat.frame(_))
+    val model = CoreModel.run(config, beats, p)
+    var rtl: RtlResult = null
+    core.doSim(name, seed.toInt) { dut => rtl = CoreSim.run(dut, beats, p, blanking, rng(name).nextLong()) }
+    Scoreboard.compare(name, CoreEvents.of(model), rtl.events, frames.lastOption).foreach(msg => fail(msg))
+    val fd = model.featureStream.zipAll(rtl.featureStream, null, null).indexWhere { case (a, b) => a != b }
+    if (fd >= 0) {
+      val dir = Scoreboard.dumpFeatures(name, model.features, rtl.features, frames.lastOption)
+      fail(s"$name: feature output item $fd: model ${model.featureStream.lift(fd)} vs RTL ${rtl.featureStream.lift(fd)}; dumped to $dir")
+    }
+    assert(rtl.deselected == model.deselected, s"$name: deselected corners (RTL ${rtl.deselected}, model ${model.deselected})")
+    assert(rtl.featureDrops == 0 && model.featureDrops == 0, s"$name: ${rtl.featureDrops} selected corners got no feature")
+    assert(rtl.features.size + rtl.deselected == rtl.corners.size, s"$name: every corner is a feature or deselected")
+    println(f"[orb] $name%-30s ${frames.size} frames ${frames.head.width}x${frames.head.height}: ${rtl.corners.size} corners, " +
+      s"${rtl.deselected} deselected, ${rtl.features.size} features (${model.budget.map(_._2.selected.size).mkString(", ")} per frame), ${rtl.cycles} clocks")
+    (model, rtl)
+  }
+
+  test("a still photograph: exactly the target from its second frame on, RTL == model") {
+    val img = image("graf1.png").crop(0, 0, 800, 320)
+    val (model, _) = check("budget-graf-target", Seq.fill(4)(img), cornerParams.copy(target = 300))
+    val perFrame = model.budget.map(_._2.selected.size)
+    assert(perFrame.size == 3 && perFrame.tail == Seq(300, 300), s"features per frame: $perFrame")
+    assert(model.budget.head._1 == BudgetModel.noHistory && model.budget(1)._1.history)
+  }
+
+  test("targets 0, 1 and above the number of cell winners; corners of a frame too narrow for the engines") {
+    val img = image("leuvenA.png").crop(100, 100, 400, 160)
+    val (zero, _) = check("budget-target0", Seq.fill(3)(img), cornerParams.copy(target = 0))
+    assert(zero.features.isEmpty && zero.deselected == zero.cornerCount && zero.cornerCount > 0)
+    val (one, _) = check("budget-target1", Seq.fill(3)(img), cornerParams.copy(target = 1))
+    assert(one.budget.map(_._2.selected.size) == Seq(1, 1))
+    val (all, _) = check("budget-target-max", Seq.fill(3)(img), cornerParams.copy(target = BudgetConfig.targetMax))
+    assert(all.budget.forall { case (_, s) => s.deselected == 0 || s.selected.size > 0 })
+    // the narrowest frames with a corner column (x = 22) are too narrow for the engines to serve one corner a cell
+    val narrow = config.perCellSteps.head
+    assert(narrow == (2 * config.harris.border + 1, 0))
+    val crossings = GrayImage.tabulate(narrow._1 + 1, 120)((x, y) => if (((x + 2) / 4 + y / 4) % 2 == 0) 30 else 220)
+    val (n, _) = check("budget-narrow", Seq.fill(3)(crossings), harrisOnly)
+    assert(n.features.isEmpty && n.cornerCount > 0, "too narrow for the engines: every corner deselected")
+  }
+
+  test("a flood of corners in every line length, no blanking: every selected corner gets its feature") {
+    // 4-px checkerboard crossings with pure Harris maxima: a corner every 4 px in every 4th row.
+    for (w <- Seq(64, 100, 150, 300, 640)) {
+      val flood = Patterns.checkerboard(w, 96, 4)
+      check(s"budget-flood-$w", Seq(flood, flood, flood), harrisOnly)
+    }
+  }
+
+  test("dense real textures at full size, no blanking: baboon, starry_night") {
+    for (name <- Seq("baboon.png", "starry_night.png")) {
+      val img = image(name)
+      val (model, _) = check(s"budget-$name", Seq.fill(3)(img))
+      assert(model.deselected > model.features.size, s"$name: the budget deselects most corners of a dense texture")
+      assert(model.budget.last._2.selected.size == config.budget.defaultTarget, s"$name: the target in its second frame")
+    }
+  }
+}
