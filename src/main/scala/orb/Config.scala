@@ -123,8 +123,8 @@ final case class CornerParams(threshold: Long, segmentThreshold: Option[Int], ta
   *     bounds the density by construction, so that the descriptor engines and the matcher serve every survivor at
   *     one pixel per clock for any line length and no blanking at all (`OrbConfig.budgetService` checks it for
   *     every line length; lines too short for `perCell` get fewer per cell, `OrbConfig.perCellFor`).
-  *  2. Frame target. The cell winners are ranked in score levels (`levelFracBits` fraction bits of log2 score:
-  *     quarter octaves by default). From the winners' level histogram of a good frame the core takes for the next
+  *  2. Frame target. The cell winners are ranked in score levels (the leading one's position and the
+  *     `levelFracBits` bits after it: each octave in four equal parts by default). From the winners' level histogram of a good frame the core takes for the next
   *     frame the cut level L and remainder r that give exactly `target` features: every winner above level L, the
   *     first r in raster order at level L. A frame never gets more than `target` features (winners past it are
   *     deselected); with no history (after reset) the first `target` winners in raster order are taken.
@@ -201,14 +201,15 @@ object SegmentTestConfig {
   * @param rotationFracBits fraction bits of the per-bin cos/sin used to rotate the test pattern
   * @param orientationSlots corners of one row whose moments accumulate at the same time (a corner occupies a slot
   *                         while the 31 columns of its patch pass; corners closer than 31 px share the time)
-  * @param cornerQueueDepth corners waiting for the rows of their orientation patch (about 10 rows of corners)
+  * @param cornerQueueDepth selected corners waiting for the rows of their orientation patch (the budget's bands
+  *                         from their emission to the orientation of their last row: `OrbConfig` checks the depth)
   * @param slackRows        rows after its patch is complete during which a corner's descriptor may still be
   *                         computed (each costs one more smoothed row of memory); a corner not done by then is
   *                         dropped and counted
-  * @param readyQueueDepth  oriented corners waiting for a descriptor engine
+  * @param readyQueueDepth  oriented corners waiting for a descriptor engine (checked as the corner queue)
   */
 case class OrbDescriptorConfig(angleBins: Int = 512, tanFracBits: Int = 18, rotationFracBits: Int = 16,
-                               orientationSlots: Int = 8, cornerQueueDepth: Int = 256,
+                               orientationSlots: Int = 8, cornerQueueDepth: Int = 64,
                                slackRows: Int = 8, readyQueueDepth: Int = 128) {
   require(angleBins >= 8 && angleBins % 8 == 0, "angleBins must be a multiple of 8")
   require(orientationSlots >= 1 && cornerQueueDepth >= 2 && slackRows >= 1 && readyQueueDepth >= 2)
@@ -313,6 +314,16 @@ case class OrbConfig(frame: FrameConfig = FrameConfig(), harris: HarrisConfig = 
     "every band with corners must be emitted before its frame ends")
   require(descriptor.orientationSlots >= 2 * budget.perCell,
     s"a row can have ${2 * budget.perCell} budget winners within 31 columns: that many orientation slots")
+  /** The most corners the budget lets through per band of `cellHeight` rows, in the longest lines. */
+  def budgetPerBand: Int = budget.perCell * budget.cellsWithCorners(frame.maxWidth, harris.border)
+  /** Bands whose corners wait in the orientation queue at once: from a band's emission (row band end +
+    * `emitRowOffset`) to the orientation of its last row (row + 15); and in the descriptor unit's ready queue: from
+    * the orientation of a row (row + 15) until its descriptor must start (row + 22 + `slackRows`). */
+  def bandsQueued(fromRow: Int, toRow: Int): Int = (toRow - fromRow) / budget.cellHeight + 2
+  require(descriptor.cornerQueueDepth >= budgetPerBand * bandsQueued(budget.cellHeight + budget.emitRowOffset,
+    budget.cellHeight - 1 + OrbDescriptorConfig.patchRadius), "the orientation's corner queue is too short for the budget's bands")
+  require(descriptor.readyQueueDepth >= budgetPerBand * bandsQueued(OrbDescriptorConfig.patchRadius,
+    OrbDescriptorConfig.startRowOffset + descriptor.slackRows), "the descriptor unit's ready queue is too short for the budget's bands")
   require(perCellFor(frame.maxWidth) == budget.perCell,
     s"the stages behind the feature budget cannot serve ${budget.perCell} corners per cell in ${frame.maxWidth}-px lines: " +
       budgetService(frame.maxWidth, budget.perCell).getOrElse(""))

@@ -156,7 +156,7 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
     val histogram = Vec.fill(levels)(Reg(UInt(countWidth bits)) init 0)
   }
 
-  /** floor(log2(score) * 2^levelFracBits): the leading one's position and the bits after it. */
+  /** The leading one's position and the `levelFracBits` bits after it (`BudgetModel.level`). */
   def levelOf(score: UInt): UInt = {
     val lead = UInt(log2Up(h.scoreWidth) bits)
     lead := 0

@@ -210,7 +210,8 @@ object Report {
     val top = report.toplevel
     val verilog = new File(rtl, s"${report.toplevelName}.v")
     val instances: Seq[(String, Component)] = Seq("core.tracker" -> top.core.tracker, "core.lines" -> top.core.lines,
-      "core.harris" -> top.core.harris, "core.smoother" -> top.core.smoother, "core.orientation" -> top.core.orientation,
+      "core.harris" -> top.core.harris, "core.budget" -> top.core.budget, "core.smoother" -> top.core.smoother,
+      "core.orientation" -> top.core.orientation,
       "core.descriptors" -> top.core.descriptors, "matcher" -> top.matcher)
     val mems = memories(top, instances)
     println(s"$app: ${mems.size} memories, ${mems.map(_.m4k).sum} M4K; Yosys generic synthesis (a few minutes)")

@@ -49,8 +49,8 @@ class FeatureBudgetSpec extends AnyFunSuite {
     // the narrowest frames with a corner column (x = 22) are too narrow for the engines to serve one corner a cell
     val narrow = config.perCellSteps.head
     assert(narrow == (2 * config.harris.border + 1, 0))
-    val crossings = GrayImage.tabulate(narrow._1 + 1, 120)((x, y) => if (((x + 2) / 4 + y / 4) % 2 == 0) 30 else 220)
-    val (n, _) = check("budget-narrow", Seq.fill(3)(crossings), harrisOnly)
+    val noise = Patterns.noise(narrow._1 + 1, 120, rng("narrow"))
+    val (n, _) = check("budget-narrow", Seq.fill(3)(noise), harrisOnly)
     assert(n.features.isEmpty && n.cornerCount > 0, "too narrow for the engines: every corner deselected")
   }
 

@@ -17,7 +17,7 @@ class ReportSpec extends AnyFunSuite {
     for (k <- Seq("les", "luts", "ffs", "m4k", "multipliers", "pixels_per_clock")) assert(number(k) >= 0, k)
     assert(json.contains("\"fmax_mhz\": null"), "--no-timing gives fmax_mhz null")
     val blocks = json.substring(json.indexOf("\"blocks\""), json.indexOf("\"memories\""))
-    for (b <- Seq("core.harris", "core.descriptors", "matcher", "top")) assert(blocks.contains(s""""$b": {"les": """), b)
+    for (b <- Seq("core.harris", "core.budget", "core.descriptors", "matcher", "top")) assert(blocks.contains(s""""$b": {"les": """), b)
     for (k <- Seq("luts", "ffs", "m4k", "multipliers", "fmax_mhz", "pixels_per_clock"))
       assert(s""""$k": """.r.findAllMatchIn(blocks).size == 8, s"every block has $k")
     // Per-block figures add up to the totals; the memory list adds up to the M4K total.

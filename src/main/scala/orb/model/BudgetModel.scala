@@ -18,7 +18,7 @@ object BudgetModel {
   /** How a frame's corners fared. */
   final case class FrameSelection(selected: Seq[Corner], deselected: Int, dropped: Int, histogram: IndexedSeq[Int])
 
-  /** floor(log2(score) * 2^f): the leading one's position and the `f` bits after it (0 for a score of 0). */
+  /** The leading one's position and the `f` bits after it: each octave of scores in 2^f equal parts (0 for 0). */
   def level(score: Long, cfg: BudgetConfig): Int =
     if (score <= 0) 0
     else {

@@ -16,8 +16,9 @@ import java.io.File
 object Evaluate {
   val app = "orb.sim.Evaluate"
   val usage: String =
-    s"""usage: $app --key KEY.png --live LIVE.png --homography H.txt --out DIR [--harris-threshold T]
-       |       [--segment-threshold T | --no-segment-test]   the corner detector's run-time parameters (see Match --help)
+    s"""usage: $app --key KEY.png --live LIVE.png --homography H.txt --out DIR [--features N] [--harris-threshold T]
+       |       [--segment-threshold T | --no-segment-test]   the feature budget's target and the corner detector's
+       |       run-time parameters (see Match --help); the images go through the core as Match sends them
        |  Our core (golden model; the RTL is bit-exact with it) with the default store, cross-check, and with the
        |  ratio test 0.8 too; OpenCV ORB with as many features per image as ours (keyframe: our store), 1 and 8 levels,
        |  BFMatcher(NORM_HAMMING, crossCheck = true). Writes figure9_threshold.{csv,png}, figure9_count.{csv,png}.""".stripMargin
@@ -92,7 +93,7 @@ object Evaluate {
   def main(args: Array[String]): Unit = {
     def fail(msg: String): Nothing = { System.err.println(s"$app: $msg"); sys.exit(2) }
     if (args.contains("--help")) { println(usage); return }
-    val valued = Set("--key", "--live", "--homography", "--out", "--harris-threshold", "--segment-threshold")
+    val valued = Set("--key", "--live", "--homography", "--out", "--harris-threshold", "--segment-threshold", "--features")
     def options(rest: List[String], acc: Map[String, String]): Map[String, String] = rest match {
       case Nil => acc
       case "--no-segment-test" :: t => options(t, acc + ("--no-segment-test" -> ""))
@@ -108,7 +109,8 @@ object Evaluate {
       opts.get(k).map(v => v.toLongOption.filter(n => n >= 0 && n <= hi).getOrElse(fail(s"$k takes a whole number from 0 to $hi, not '$v'")))
     val defaults = cfg.harris.defaultParams
     val corners = CornerParams(whole("--harris-threshold", 0xffffffffL).getOrElse(defaults.threshold),
-      if (opts.contains("--no-segment-test")) None else whole("--segment-threshold", 255).map(_.toInt).orElse(defaults.segmentThreshold))
+      if (opts.contains("--no-segment-test")) None else whole("--segment-threshold", 255).map(_.toInt).orElse(defaults.segmentThreshold),
+      whole("--features", BudgetConfig.targetMax).map(_.toInt).getOrElse(defaults.target))
     val key = try Match.loadImage(opts("--key"), "--key", cfg) catch { case e: Match.UsageError => fail(e.getMessage) }
     val live = try Match.loadImage(opts("--live"), "--live", cfg) catch { case e: Match.UsageError => fail(e.getMessage) }
     val h = try Homography.load(opts("--homography")) catch { case e: Exception => fail(s"--homography: ${e.getMessage}") }

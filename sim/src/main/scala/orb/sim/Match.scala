@@ -22,7 +22,8 @@ object Match {
        |  --hamming N             accept a best match at distance <= N (0..256, default ${OrbConfig.default.matcher.defaultHammingThreshold})
        |  --ratio R               ratio test: best < R * second best (0 < R < 2, e.g. 0.8; default off)
        |  --cross-check / --no-cross-check   mutual nearest neighbours only (default ${if (OrbConfig.default.matcher.defaultCrossCheck) "on" else "off"})
-       |  --harris-threshold T    corner score threshold (default ${OrbConfig.default.harris.defaultThreshold})
+       |  --features N            the feature budget's target: features per frame, 0..${BudgetConfig.targetMax} (default ${OrbConfig.default.budget.defaultTarget})
+       |  --harris-threshold T    the minimum corner score (default ${OrbConfig.default.harris.defaultThreshold})
        |  --segment-threshold T   the segment test's intensity threshold, 0..255 (default ${OrbConfig.default.harris.segment.fold("-")(_.defaultThreshold.toString)})
        |  --no-segment-test       every pixel a corner candidate: pure Harris maxima (CONTROL bit 2 off)
        |  --config NAME           core preset: ${OrbConfig.presets.keys.toSeq.sorted.mkString(", ")} (default: default)
@@ -36,18 +37,19 @@ object Match {
                            homography: Option[String] = None, params: MatchParams = MatchParams(
                              OrbConfig.default.matcher.defaultHammingThreshold, None, OrbConfig.default.matcher.defaultCrossCheck),
                            threshold: Long = OrbConfig.default.harris.defaultThreshold,
+                           features: Int = OrbConfig.default.budget.defaultTarget,
                            /** None: the configuration's default; Some(None): no segment test */
                            segment: Option[Option[Int]] = None, configName: String = "default",
                            wave: Boolean = false, waveRows: Int = 48, trace: Option[(Int, Int)] = None, seed: Long = 1) {
     def config: OrbConfig = OrbConfig.presets(configName)
-    def corners: CornerParams = CornerParams(threshold, segment.getOrElse(config.harris.defaultParams.segmentThreshold))
+    def corners: CornerParams = CornerParams(threshold, segment.getOrElse(config.harris.defaultParams.segmentThreshold), features)
   }
 
   final class UsageError(msg: String) extends Exception(msg)
   private def fail(msg: String): Nothing = throw new UsageError(msg)
 
   private val valued = Set("--key", "--live", "--out", "--engine", "--homography", "--hamming", "--ratio",
-    "--harris-threshold", "--segment-threshold", "--config", "--wave-rows", "--trace", "--seed")
+    "--harris-threshold", "--segment-threshold", "--config", "--wave-rows", "--trace", "--seed", "--features")
 
   def parse(args: Seq[String]): Options = {
     def int(flag: String, v: String, lo: Long, hi: Long): Long =
@@ -68,6 +70,7 @@ object Match {
       case "--cross-check" :: t => loop(t, o.copy(params = o.params.copy(crossCheck = true)))
       case "--no-cross-check" :: t => loop(t, o.copy(params = o.params.copy(crossCheck = false)))
       case "--harris-threshold" :: v :: t => loop(t, o.copy(threshold = int("--harris-threshold", v, 0, 0xffffffffL)))
+      case "--features" :: v :: t => loop(t, o.copy(features = int("--features", v, 0, BudgetConfig.targetMax).toInt))
       case "--segment-threshold" :: v :: t =>
         if (o.segment.contains(None)) fail("--segment-threshold and --no-segment-test contradict each other")
         loop(t, o.copy(segment = Some(Some(int("--segment-threshold", v, 0, 255).toInt))))
@@ -114,9 +117,9 @@ object Match {
     val r = SystemModel.run(o.config, beats, o.corners, o.params)
     val c = r.core
     val counters = Seq("frames" -> c.counters.frames, "bad_frames" -> c.counters.badFrames, "bad_lines" -> c.counters.badLines,
-      "corners" -> c.cornerCount, "features" -> c.features.size.toLong, "feature_drops" -> 0L,
+      "corners" -> c.cornerCount, "features" -> c.features.size.toLong, "feature_drops" -> c.featureDrops,
       "stored" -> r.matches.store.features.size.toLong, "store_overflow" -> r.matches.overflow,
-      "matches" -> r.correspondences.size.toLong, "match_drops" -> 0L)
+      "matches" -> r.correspondences.size.toLong, "match_drops" -> 0L, "deselected" -> c.deselected)
     Outcome(c.featureStream, r.lastLive, counters, None, beats.size.toLong, None)
   }
 
@@ -134,6 +137,10 @@ object Match {
       case Some((_, ty)) => ((ty - o.waveRows / 2) max 0, (ty - o.waveRows / 2 max 0) + o.waveRows)
       case None => (0, o.waveRows)
     }
+    // Correspondences before this beat belong to the frames before the last: its first corner cannot be described
+    // before row border + 22, and the frame before has been matched and swept by then (OrbConfig.budgetService).
+    val lastFrameFrom = (liveStart + (cfg.harris.border + OrbDescriptorConfig.startRowOffset) * live.width) min total
+    var before = 0
     val waveFrom = (liveStart + firstRow * live.width) min total
     val waveTo = (liveStart + lastRow * live.width) min total
     val started = System.nanoTime()
@@ -142,10 +149,11 @@ object Match {
       val rng = new Random(o.seed)
       val (bus, monitor) = TopSim.start(dut, o.corners, o.params, 1.0, rng)
       // Beats in parts: the waveform is switched on for [waveFrom, waveTo) only; progress between parts.
-      val cuts = (Seq(0, total) ++ (if (o.wave) Seq(waveFrom, waveTo) else Nil) ++ (0 until total by (1 << 16)))
+      val cuts = (Seq(0, total, lastFrameFrom) ++ (if (o.wave) Seq(waveFrom, waveTo) else Nil) ++ (0 until total by (1 << 16)))
         .filter(c => c >= 0 && c <= total).distinct.sorted
       var lastReport = System.nanoTime()
       for (Seq(from, to) <- cuts.sliding(2)) {
+        if (from == lastFrameFrom) before = monitor.correspondences.size
         if (o.wave && from == waveFrom) enableSimWave()
         if (o.wave && from == waveTo) disableSimWave()
         CoreSim.drivePixels(dut.io.pixels, dut.clockDomain, beats.slice(from, to), Blanking.camera, rng)
@@ -164,7 +172,24 @@ object Match {
       if (fst.isFile) java.nio.file.Files.copy(fst.toPath, new File(dir, "wave.fst").toPath, java.nio.file.StandardCopyOption.REPLACE_EXISTING)
       Waves.writeGtkw(new File(dir, "wave.gtkw"), new File(dir, "wave.fst"), compiled.dut)
     }
-    Outcome(result.featureStream, result.correspondences, counters, Some(result.cycles), total.toLong, Some(result))
+    Outcome(result.featureStream, result.correspondences.drop(before), counters, Some(result.cycles), total.toLong, Some(result))
+  }
+
+  /** The feature budget of the keyframe and of the live frame (the model's: the rtl engine equals it), and why no
+    * corner can be dropped for lack of time. */
+  def budgetSummary(o: Options, key: GrayImage, live: GrayImage): Seq[(String, Any)] = {
+    val cfg = o.config
+    val core = CoreModel.run(cfg, SystemModel.pairBeats(key, live), o.corners)
+    val processed = core.budget
+    def frame(i: Int): Seq[(String, Any)] = processed.lift(i).fold(Seq[(String, Any)]()) { case (cut, sel) =>
+      Seq("cut_level" -> (if (cut.history) Some(cut.level) else None), "cut_remainder" -> (if (cut.history) Some(cut.remainder) else None),
+        "selected" -> sel.selected.size, "deselected" -> sel.deselected)
+    }
+    // the processed frames: key (cut), keyframe, live (cut), live; with another live size two more frames are not processed
+    Seq("target" -> o.features, "cell" -> s"${cfg.budget.cellWidth}x${cfg.budget.cellHeight}",
+      "per_cell" -> Seq("key" -> cfg.perCellFor(key.width), "live" -> cfg.perCellFor(live.width)),
+      "keyframe" -> frame(1), "live" -> frame(processed.size - 1),
+      "timing_drops" -> "none possible: the budget bounds what reaches the engines and the matcher (OrbConfig.budgetService)")
   }
 
   def hasVerilator: Boolean =
@@ -254,12 +279,12 @@ object Match {
       "engine" -> o.engine, "config" -> o.configName,
       "key" -> Seq("path" -> o.key, "width" -> key.width, "height" -> key.height, "features" -> keyFeatures.size),
       "live" -> Seq("path" -> o.live, "width" -> live.width, "height" -> live.height, "features" -> liveFeatures.size),
-      "params" -> Seq("harris_threshold" -> o.threshold, "segment_threshold" -> o.corners.segmentThreshold, "hamming" -> o.params.hammingThreshold,
+      "params" -> Seq("features" -> o.features, "harris_threshold" -> o.threshold, "segment_threshold" -> o.corners.segmentThreshold, "hamming" -> o.params.hammingThreshold,
         "ratio" -> o.params.ratio.map(r => r.toDouble / (1 << cfg.matcher.ratioFracBits)), "cross_check" -> o.params.crossCheck),
-      // The stream sent (SystemModel.pairBeats): the counters count its teaching frames too.
-      "stream" -> (if (key.width == live.width && key.height == live.height)
-        "3 frames: uniform (teaches the geometry), keyframe, live"
-      else "5 frames: uniform, keyframe, uniform of the live size (a counted bad frame: its lines are too long or short), uniform, live"),
+      // The stream sent (SystemModel.pairBeats): the counters count every frame of it; the correspondences are the
+      // last frame's.
+      "stream" -> SystemModel.pairDescription(key, live),
+      "budget" -> budgetSummary(o, key, live),
       "counters" -> outcome.counters,
       "correspondences" -> outcome.correspondences.size,
       "cycles" -> outcome.cycles, "pixels" -> outcome.pixels,

@@ -24,13 +24,15 @@ object Trace {
     val store = MatcherModel.store(keyFeatures, cfg.matcher)
     val nearest = MatcherModel.nearest(desc, store)
     val accepted = nearest.exists { case (_, b, s) => MatcherModel.accepted(b, s, o.params, cfg.matcher) }
-    val emitted = run.correspondences.find(c => c.liveX == x && c.liveY == y)
+    val lastLive = run.frames.filterNot(_.keyframe).lastOption.map(_.correspondences).getOrElse(Nil)
+    val emitted = lastLive.find(c => c.liveX == x && c.liveY == y)
     def deg(b: Int) = f"${OrbModel.binDegrees(b, cfg.descriptor)}%.3f"
     def keyAt(j: Int) = s"#$j (${store.features(j).x}, ${store.features(j).y})"
     val model = Seq(
       "Harris response R" -> response.toString,
       "segment test" -> segment.fold("off")(p => if (p) "passes" else "fails"),
       scoreName -> score.toString,
+      "budget level (octave, quarter)" -> BudgetModel.level(score, cfg.budget).toString,
       "moment m10" -> m10.toString, "moment m01" -> m01.toString,
       "angle bin" -> bin.toString, "angle (deg)" -> deg(bin),
       "descriptor" -> desc.hex,
@@ -44,7 +46,7 @@ object Trace {
       val ori = r.oriented.reverse.find(q => q.x == x && q.y == y)
       val feat = r.features.reverse.find(q => q.x == x && q.y == y)
       val scan = r.scans.reverse.find(s => s.liveX == x && s.liveY == y)
-      val out = r.correspondences.find(c => c.liveX == x && c.liveY == y)
+      val out = r.correspondences.reverse.find(c => c.liveX == x && c.liveY == y)
       Map(scoreName -> corner.fold("-")(_.score.toString),
         "moment m10" -> ori.fold("-")(_.m10.toString), "moment m01" -> ori.fold("-")(_.m01.toString),
         "angle bin" -> ori.fold("-")(_.bin.toString), "angle (deg)" -> ori.fold("-")(q => deg(q.bin)),

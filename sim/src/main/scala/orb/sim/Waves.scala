@@ -15,11 +15,12 @@ object Waves {
       "1 camera pixels" -> flat(top.io.pixels),
       "2 frame tracker" -> flat(top.core.tracker.io.tracked),
       "3 Harris corners" -> (flat(top.core.harris.io.corners) ++ flat(top.core.harris.io.control)),
-      "4 orientation" -> flat(top.core.orientation.io.oriented),
-      "5 descriptors (feature stream)" -> flat(top.core.io.features),
-      "6 matcher" -> (Seq(m.scan.busy, m.sweep.busy, m.decide.done) ++ flat(m.compare.acc) ++ flat(m.scan.live).filterNot(_.getBitsWidth == 256)),
-      "7 correspondences" -> flat(top.io.correspondences),
-      "8 registers (Avalon-MM)" -> flat(top.io.ctrl))
+      "4 feature budget (selected corners)" -> (flat(top.core.budget.io.selected) ++ Seq(top.core.budget.io.deselected)),
+      "5 orientation" -> flat(top.core.orientation.io.oriented),
+      "6 descriptors (feature stream)" -> flat(top.core.io.features),
+      "7 matcher" -> (Seq(m.scan.busy, m.sweep.busy, m.decide.done) ++ flat(m.compare.acc) ++ flat(m.scan.live).filterNot(_.getBitsWidth == 256)),
+      "8 correspondences" -> flat(top.io.correspondences),
+      "9 registers (Avalon-MM)" -> flat(top.io.ctrl))
   }
 
   /** TOP.OrbTop.core.harris.io_corners_valid and the like. */

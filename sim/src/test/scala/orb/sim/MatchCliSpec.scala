@@ -42,7 +42,9 @@ class MatchCliSpec extends AnyFunSuite {
       Seq("--key", graf1, "--live", graf3, "--out", out, "--homography", badH.getPath) -> "9 numbers",
       Seq("--key", graf1, "--live", graf3, "--out", out, "--homography", "data/none.txt") -> "no such file",
       Seq("--key", graf1, "--live", graf3, "--out", out, "--segment-threshold", "256") -> "--segment-threshold takes a whole number from 0 to 255",
-      Seq("--key", graf1, "--live", graf3, "--out", out, "--segment-threshold", "20", "--no-segment-test") -> "contradict")
+      Seq("--key", graf1, "--live", graf3, "--out", out, "--segment-threshold", "20", "--no-segment-test") -> "contradict",
+      Seq("--key", graf1, "--live", graf3, "--out", out, "--features", "70000") -> "--features takes a whole number from 0 to 65535",
+      Seq("--key", graf1, "--live", graf3, "--out", out, "--features", "many") -> "--features")
     for ((args, expected) <- cases) {
       val (status, err) = run(args: _*)
       assert(status == 2, s"${args.mkString(" ")}: status $status")
@@ -60,6 +62,11 @@ class MatchCliSpec extends AnyFunSuite {
     val summary = lines(dir, "summary.json").mkString("\n")
     assert(summary.contains(s""""correspondences": ${cs.size - 1}""") && summary.contains(s""""features": ${live.size - 1}"""))
     assert(summary.contains("\"inliers_3px\": 0.") && summary.contains("\"ratio\": 0.80") && summary.contains("\"segment_threshold\": 20"))
+    assert(live.size - 1 == 500 && lines(dir, "key_features.csv").size - 1 == 500, "the target, on images with more corners")
+    assert(summary.contains("\"target\": 500") && summary.contains("\"stream\": \"5 frames") && summary.contains("\"deselected\": "))
+    val few = new File(tmp, "model-100")
+    assert(run("--key", graf1, "--live", graf3, "--out", few.getPath, "--features", "100")._1 == 0)
+    assert(lines(few, "live_features.csv").size - 1 == 100 && lines(few, "summary.json").mkString.contains("\"features\": 100"))
     val plain = new File(tmp, "model-harris")
     assert(run("--key", graf1, "--live", graf3, "--out", plain.getPath, "--no-segment-test")._1 == 0)
     assert(lines(plain, "summary.json").mkString("\n").contains("\"segment_threshold\": null"))
