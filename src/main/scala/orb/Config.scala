@@ -308,12 +308,17 @@ case class OrbConfig(frame: FrameConfig = FrameConfig(), harris: HarrisConfig = 
     * disc, 31 rows; Harris reads the newest 9, the smoother the newest 7). */
   def rawRows: Int = HarrisConfig.rawRows max (2 * OrbDescriptorConfig.patchRadius + 1)
   def maxWidth: Int = frame.maxWidth
+  /** The run-time parameters after reset: the detector's and the budget's target. */
+  def defaultParams: CornerParams = harris.defaultParams.copy(target = budget.defaultTarget)
 
   // The feature budget's cells against what the stages behind them can serve (see `budgetService`).
   require(harris.border >= budget.cellHeight + budget.emitRowOffset,
     "every band with corners must be emitted before its frame ends")
   require(descriptor.orientationSlots >= 2 * budget.perCell,
     s"a row can have ${2 * budget.perCell} budget winners within 31 columns: that many orientation slots")
+  require(perCellFor(frame.maxWidth) == budget.perCell,
+    s"the stages behind the feature budget cannot serve ${budget.perCell} corners per cell in ${frame.maxWidth}-px lines: " +
+      budgetService(frame.maxWidth, budget.perCell).getOrElse(""))
   /** The most corners the budget lets through per band of `cellHeight` rows, in the longest lines. */
   def budgetPerBand: Int = budget.perCell * budget.cellsWithCorners(frame.maxWidth, harris.border)
   /** Bands whose corners wait in the orientation queue at once: from a band's emission (row band end +
@@ -324,9 +329,6 @@ case class OrbConfig(frame: FrameConfig = FrameConfig(), harris: HarrisConfig = 
     budget.cellHeight - 1 + OrbDescriptorConfig.patchRadius), "the orientation's corner queue is too short for the budget's bands")
   require(descriptor.readyQueueDepth >= budgetPerBand * bandsQueued(OrbDescriptorConfig.patchRadius,
     OrbDescriptorConfig.startRowOffset + descriptor.slackRows), "the descriptor unit's ready queue is too short for the budget's bands")
-  require(perCellFor(frame.maxWidth) == budget.perCell,
-    s"the stages behind the feature budget cannot serve ${budget.perCell} corners per cell in ${frame.maxWidth}-px lines: " +
-      budgetService(frame.maxWidth, budget.perCell).getOrElse(""))
 
   /** Clocks the descriptor stage needs per feature in a busy stretch: the matcher's scan, or the engines' time
     * shared by two engines, whichever is longer; a keyframe feature replacing a weaker entry takes less. */

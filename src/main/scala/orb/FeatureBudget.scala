@@ -15,7 +15,8 @@ import spinal.lib._
   * the frame's target; it leaves on `selected` or is deselected.
   *
   * Frame end (after the frame's corners): winners still in a bank (a fault cut their band) are counted as dropped;
-  * after a good frame the histogram is walked from the top level down, one level per clock, to find the next cut.
+  * after a good frame the histogram (a RAM word per level) is walked from the top level down, one level per clock, to
+  * find the next cut, and emptied on the way.
   *
   * Frames are told apart by their ends only: no corner of a frame arrives before the previous frame's end has been
   * handled (the first corners come 22 rows into a frame). */
@@ -70,8 +71,8 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
   // A corner into its cell's list: `ahead` (valid and at least as strong) is a prefix of the sorted list.
   val intake = new Area {
     val c = io.corners
-    val bank = (c.y >> b.bandShift).resize(1)
-    val cellIndex = (c.x >> b.cellShift).resize(log2Up(cells max 2))
+    val bank = c.y(b.bandShift downto b.bandShift)
+    val cellIndex = c.x(b.cellShift, log2Up(cells max 2) bits)
     val list = banks(bank)(cellIndex)
     val fresh = Entry()
     fresh.valid := True
@@ -104,14 +105,18 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
     val y = p.y
     val rowStart = p.valid && p.x === 0 && p.active
     val sinceEnd = y - b.emitRowOffset
-    val trigger = rowStart && y >= b.cellHeight + b.emitRowOffset && sinceEnd.resize(b.bandShift) === 0
+    val trigger = rowStart && y >= b.cellHeight + b.emitRowOffset && sinceEnd(b.bandShift - 1 downto 0) === 0
+    /** the band that ends `emitRowOffset` rows before this row */
+    val band = sinceEnd(f.coordWidth - 1 downto b.bandShift) - 1
     val busy = Reg(Bool()) init False
+    // one winner every `FeatureBudget.winnerClocks`: the histogram's read-modify-write of a RAM word takes that long
+    val pace = Reg(UInt(log2Up(FeatureBudget.winnerClocks) bits)) init 0
     val bank = Reg(UInt(1 bits)) init 0
     val bandY = Reg(UInt(f.coordWidth bits)) init 0
     when(trigger) {
       busy := True
-      bank := ((sinceEnd >> b.bandShift) - 1).resize(1)
-      bandY := (((sinceEnd >> b.bandShift) - 1) << b.bandShift).resize(f.coordWidth)
+      bank := band(0 downto 0)
+      bandY := (band @@ U(0, b.bandShift bits)).resize(f.coordWidth)
     }
     // The winner that comes first in raster order: row offset, then cell, then column.
     val entries = banks(bank).zipWithIndex.flatMap { case (list, cell) => list.map(e => (e, U(cell, log2Up(cells max 2) bits))) }
@@ -133,11 +138,13 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
       Mux(l.valid && (!r.valid || l.key <= r.key), l, r)
     }
     val out = Flow(HarrisCorner(f, h))
-    out.valid := busy && first.valid
+    val now = busy && pace === 0
+    out.valid := now && first.valid
     out.x := ((first.key.resize(log2Up(cells max 2) + b.cellShift)).resize(f.coordWidth))
     out.y := bandY + first.key(first.key.getWidth - 1 downto first.key.getWidth - b.bandShift).resize(f.coordWidth)
     out.score := first.score
-    when(busy) {
+    when(busy) { pace := pace + 1 }
+    when(now) {
       when(first.valid) {
         for ((e, i) <- entries.map(_._1).zipWithIndex) when(first.index === i) { e.valid := False }
       } otherwise {
@@ -153,7 +160,19 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
     val history = Reg(Bool()) init False
     val taken = Reg(UInt(BudgetConfig.targetWidth + 1 bits)) init 0
     val atCut = Reg(UInt(BudgetConfig.targetWidth + 1 bits)) init 0
-    val histogram = Vec.fill(levels)(Reg(UInt(countWidth bits)) init 0)
+  }
+
+  // Winners per score level, in a RAM (one word per level): a winner's count is read, a register on both sides,
+  // and written back incremented; the frame's end reads every level from the top and writes it back as 0.
+  val histogram = new Area {
+    val ram = Mem(UInt(countWidth bits), levels) // emptied by the walk after reset (no initial contents needed)
+    val readAddress = UInt(levelWidth bits)
+    val read = Bool()
+    val data = RegNext(ram.readSync(readAddress, read))
+    val write = Bool()
+    val writeAddress = UInt(levelWidth bits)
+    val writeData = UInt(countWidth bits)
+    ram.write(writeAddress, writeData, write)
   }
 
   /** The leading one's position and the `levelFracBits` bits after it (`BudgetModel.level`). */
@@ -177,7 +196,9 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
     val inCut = !cut.history || level > cut.level || (level === cut.level && cut.atCut < cut.remainder)
     val take = winner.valid && cut.taken < target && inCut
     val deselect = winner.valid && !take
-    when(winner.valid) { cut.histogram(level) := cut.histogram(level) + 1 }
+    // the count of the winner's level comes back two clocks later and is written back a clock after that
+    val counting = Delay(winner.valid, 2, init = False)
+    val countedLevel = Delay(level, 2)
     when(take) {
       cut.taken := cut.taken + 1
       when(cut.history && level === cut.level) { cut.atCut := cut.atCut + 1 }
@@ -190,12 +211,13 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
     val run, scan = newElement()
   }
   // A frame's end (a clock late, after any corner of the same clock): drop what a fault left in the banks, then
-  // walk the histogram for the next cut (after a good frame) or just empty it.
+  // walk the histogram from the top level for the next cut (after a good frame), emptying it on the way.
   val frameEnd = new Area {
     val end = io.frameEnds.stage()
-    val phase = RegInit(Phase.run)
+    // after reset the histogram RAM may hold a cut-off frame's counts: the walk empties it first
+    val phase = RegInit(Phase.scan)
     val good = Reg(Bool()) init False
-    val left = Reg(UInt(levelWidth bits)) init 0
+    val issue = Reg(UInt(levelWidth bits)) init levels - 1
     val above = Reg(UInt(countWidth + 1 bits)) init 0
     val found = Reg(Bool()) init False
     val leftover = CountOne(banks.flatMap(_.flatMap(_.map(_.valid))))
@@ -204,37 +226,46 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
       for (bank <- banks; cell <- bank; e <- cell) e.valid := False
       phase := Phase.scan
       good := end.ok
-      left := levels - 1
+      issue := levels - 1
       above := 0
       found := False
     }
-    val top = cut.histogram(levels - 1)
-    val total = above + top
-    when(phase === Phase.scan) {
-      // the histogram shifts up: the level being looked at is always the top register
-      for (i <- levels - 1 downto 1) cut.histogram(i) := cut.histogram(i - 1)
-      cut.histogram(0) := 0
+    // a level's count arrives two clocks after its read
+    val reading = phase === Phase.scan && !RegNext(phase === Phase.scan && issue === 0, init = False)
+    val readLevel = issue
+    val arrives = Delay(reading, 2, init = False)
+    val arrivedLevel = Delay(readLevel, 2)
+    val last = arrives && arrivedLevel === 0
+    when(phase === Phase.scan && issue =/= 0) { issue := issue - 1 }
+    val total = above + histogram.data
+    when(arrives) {
       when(good && !found && total >= io.target) {
         found := True
-        cut.level := left
+        cut.level := arrivedLevel
         cut.remainder := (io.target - above).resize(BudgetConfig.targetWidth)
       }
       above := total.resize(above.getWidth)
-      left := left - 1
-      when(left === 0) {
-        phase := Phase.run
-        cut.taken := 0
-        cut.atCut := 0
-        when(good) {
-          cut.history := True
-          when(!(found || total >= io.target)) {
-            cut.level := 0
-            cut.remainder := io.target
-          }
+    }
+    when(last) {
+      phase := Phase.run
+      cut.taken := 0
+      cut.atCut := 0
+      when(good) {
+        cut.history := True
+        when(!(found || total >= io.target)) {
+          cut.level := 0
+          cut.remainder := io.target
         }
       }
     }
   }
+
+  // The histogram's one read port and one write port: a winner's count, or the frame end's walk.
+  histogram.read := decide.winner.valid || frameEnd.reading
+  histogram.readAddress := Mux(frameEnd.reading, frameEnd.readLevel, decide.level)
+  histogram.write := decide.counting || frameEnd.arrives
+  histogram.writeAddress := Mux(frameEnd.arrives, frameEnd.arrivedLevel, decide.countedLevel)
+  histogram.writeData := Mux(frameEnd.arrives, U(0, countWidth bits), histogram.data + 1)
 
   val counters = new Area {
     val deselected = Reg(UInt(f.counterWidth bits)) init 0
@@ -244,4 +275,9 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
   }
   io.deselected := counters.deselected
   io.dropped := counters.dropped
+}
+
+object FeatureBudget {
+  /** Clocks between two winners leaving a bank: the histogram's read, its registered data, the write back. */
+  val winnerClocks: Int = 4
 }

@@ -242,6 +242,11 @@ object Report {
     def mhz(v: Double) = if (v.isNaN) "null" else f"$v%.2f"
     def timingJson(x: Timing) = s"""{"module": "${x.module}", "fmax_mhz": ${mhz(x.fmaxMhz)}, "routed": ${x.routed}, """ +
       s""""from": "${x.from}", "to": "${x.to}", "rtl_lines": [${x.sources.map("\"" + _ + "\"").mkString(", ")}], "seconds": ${f"${x.seconds}%.0f"}}"""
+    val tDesc = DescriptorUnit.maxClocks(cfg.descriptor)
+    json ++= s"""  "budget": {"cell": "${cfg.budget.cellWidth}x${cfg.budget.cellHeight}", "per_cell": ${cfg.budget.perCell}, """ +
+      s""""per_cell_from_width": {${cfg.perCellSteps.map { case (w, k) => s""""$w": $k""" }.mkString(", ")}}, """ +
+      s""""descriptor_clocks_max": $tDesc, "matcher_clocks_per_feature": ${cfg.matcher.clocksPerFeature}, "clocks_per_feature": ${cfg.clocksPerFeature}, """ +
+      s""""per_band_max": ${cfg.budgetPerBand}},\n"""
     json ++= s"""  "timing": ${t.fold("null")(x => s"""{"proxy": "Lattice ECP5 LFE5U-85F speed 6, nextpnr, out of context: for comparing variants, not Cyclone II timing", "core": ${timingJson(x)}, "blocks": [${blockTimes.map(b => timingJson(b._2)).mkString(", ")}]}""")}\n"""
     json ++= "}\n"
     write(new File(dir, "report.json"), json.toString)
@@ -258,6 +263,11 @@ object Report {
     md ++= "LEs: one per LUT and per carry-chain bit, flip-flops packed into them (optimistic). Memories are not in the LUT counts.\n\n"
     md ++= "## Memories\n\n| block | memory | depth x width | kind | M4K | as |\n|---|---|---:|---|---:|---|\n"
     for (m <- mems.sortBy(m => (m.block, m.name))) md ++= s"| ${m.block} | ${m.name} | ${m.depth} x ${m.width} | ${if (m.rom) "ROM" else "RAM"} | ${m.m4k} | ${m.shape._1}x${m.shape._2} |\n"
+    md ++= s"\n## Feature budget capacity\n\nCells of ${cfg.budget.cellWidth} x ${cfg.budget.cellHeight} px keep ${cfg.budget.perCell} corners " +
+      s"(by line length: ${cfg.perCellSteps.map { case (w, k) => s"$k from $w px" }.mkString(", ")}); at most ${cfg.budgetPerBand} per band " +
+      s"in ${cfg.maxWidth}-px lines. A descriptor takes at most $tDesc clocks of an engine (2 engines), the matcher " +
+      s"${cfg.matcher.clocksPerFeature} clocks per live feature: ${cfg.clocksPerFeature} clocks per feature in a busy stretch " +
+      s"(`OrbConfig.budgetService` checks every line length).\n"
     md ++= "\n## Timing proxy\n\n"
     def timingLine(x: Timing) =
       f"**${x.fmaxMhz}%.1f MHz** " + (if (x.routed) "after place and route" else s"estimated after placement (routing did not finish in ${o.minutes} min)") +

@@ -19,7 +19,7 @@ class ReportSpec extends AnyFunSuite {
     val blocks = json.substring(json.indexOf("\"blocks\""), json.indexOf("\"memories\""))
     for (b <- Seq("core.harris", "core.budget", "core.descriptors", "matcher", "top")) assert(blocks.contains(s""""$b": {"les": """), b)
     for (k <- Seq("luts", "ffs", "m4k", "multipliers", "fmax_mhz", "pixels_per_clock"))
-      assert(s""""$k": """.r.findAllMatchIn(blocks).size == 8, s"every block has $k")
+      assert(s""""$k": """.r.findAllMatchIn(blocks).size == 9, s"every block has $k")
     // Per-block figures add up to the totals; the memory list adds up to the M4K total.
     val perBlock = """"m4k": (\d+)""".r.findAllMatchIn(blocks).map(_.group(1).toInt).sum
     val memories = json.substring(json.indexOf("\"memories\""))
@@ -32,7 +32,10 @@ class ReportSpec extends AnyFunSuite {
     assert(""""depth": 1024, "width": 8""".r.findAllMatchIn(memories).size == cfg.descriptor.smoothedRows)
     assert(memories.contains(s""""depth": ${cfg.matcher.groups}, "width": 278"""))
     assert(number("multipliers") >= 24, "at least the Harris products")
+    assert(number("per_cell") == cfg.budget.perCell && number("clocks_per_feature") == cfg.clocksPerFeature &&
+      number("descriptor_clocks_max") == DescriptorUnit.maxClocks(cfg.descriptor), "the budget's capacity figures")
     val md = scala.io.Source.fromFile(new File(dir, "report.md")).mkString
+    assert(md.contains("## Feature budget capacity"))
     assert(md.contains("| **total** |") && md.contains("Not run (--no-timing)"))
     println(s"[orb] report: ${number("les")} LEs, ${number("m4k")} M4K, ${number("multipliers")} multipliers")
   }

@@ -14,7 +14,7 @@ object TestSupport {
   val config: OrbConfig = OrbConfig.default
   val threshold: Long = config.harris.defaultThreshold
   /** The detector after reset: Harris threshold and segment test */
-  val cornerParams: CornerParams = config.harris.defaultParams
+  val cornerParams: CornerParams = config.defaultParams
   /** Pure Harris maxima (segment test off) at half the threshold, which gives them about the corner rate of the
     * default on the photographs; also for patterns whose corners are crossings, which no segment test passes */
   val harrisOnly: CornerParams = CornerParams(threshold / 2, None)

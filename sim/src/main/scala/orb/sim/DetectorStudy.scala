@@ -65,7 +65,7 @@ object DetectorStudy {
     if (args.length % 2 != 0) fail("every option takes a value (see --help)")
     val opts = args.grouped(2).map { case Array(k, v) => if (known(k)) k -> v else fail(s"unknown argument '$k' (see --help)") }.toMap
     val threshold = opts.get("--threshold").map(v => v.toLongOption.filter(_ >= 2).getOrElse(fail(s"--threshold takes a whole number >= 2, not '$v'")))
-      .getOrElse(cfg.harris.defaultThreshold)
+      .getOrElse(1L << 14) // the detector study predates the feature budget: it compares detectors by threshold
     val key = try Match.loadImage(opts.getOrElse("--key", "data/graf1.png"), "--key", cfg) catch { case e: Match.UsageError => fail(e.getMessage) }
     val live = try Match.loadImage(opts.getOrElse("--live", "data/graf3.png"), "--live", cfg) catch { case e: Match.UsageError => fail(e.getMessage) }
     val h = try Homography.load(opts.getOrElse("--homography", "data/graf_1to3.H.txt")) catch { case e: Exception => fail(s"--homography: ${e.getMessage}") }

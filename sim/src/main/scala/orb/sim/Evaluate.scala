@@ -107,7 +107,7 @@ object Evaluate {
     val cfg = OrbConfig.default
     def whole(k: String, hi: Long): Option[Long] =
       opts.get(k).map(v => v.toLongOption.filter(n => n >= 0 && n <= hi).getOrElse(fail(s"$k takes a whole number from 0 to $hi, not '$v'")))
-    val defaults = cfg.harris.defaultParams
+    val defaults = cfg.defaultParams
     val corners = CornerParams(whole("--harris-threshold", 0xffffffffL).getOrElse(defaults.threshold),
       if (opts.contains("--no-segment-test")) None else whole("--segment-threshold", 255).map(_.toInt).orElse(defaults.segmentThreshold),
       whole("--features", BudgetConfig.targetMax).map(_.toInt).getOrElse(defaults.target))

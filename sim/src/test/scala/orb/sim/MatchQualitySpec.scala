@@ -10,7 +10,7 @@ import org.scalatest.funsuite.AnyFunSuite
 class MatchQualitySpec extends AnyFunSuite {
   val cfg: OrbConfig = OrbConfig.default
   lazy val rows: Seq[Quality.Row] = Quality.defaultPairs.map { p =>
-    val r = Quality.measure(p, cfg, cfg.harris.defaultParams, cfg.matcher.defaultHammingThreshold)
+    val r = Quality.measure(p, cfg, cfg.defaultParams, cfg.matcher.defaultHammingThreshold)
     println(f"[orb] ${p.name}%-26s ours ${r.ours.keyFeatures}/${r.ours.liveFeatures} features, ${r.ours.inliers()} inliers of ${r.n} " +
       f"(${r.ours.ratio() * 100}%.1f %%); OpenCV default ${r.cvDefault.inliers()} of ${r.cvDefault.matches.size}; " +
       f"OpenCV 1 level at our counts, best ${r.n}: ${r.cvSingle.ratio(r.n) * 100}%.1f %%")
