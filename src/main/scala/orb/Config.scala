@@ -124,18 +124,19 @@ final case class CornerParams(threshold: Long, segmentThreshold: Option[Int], ta
   *     one pixel per clock for any line length and no blanking at all (`OrbConfig.budgetService` checks it for
   *     every line length; lines too short for `perCell` get fewer per cell, `OrbConfig.perCellFor`).
   *  2. Frame target. The cell winners are ranked in score levels (the leading one's position and the
-  *     `levelFracBits` bits after it: each octave in four equal parts by default). From the winners' level histogram of a good frame the core takes for the next
-  *     frame the cut level L and remainder r that give exactly `target` features: every winner above level L, the
-  *     first r in raster order at level L. A frame never gets more than `target` features (winners past it are
+  *     `levelFracBits` bits after it: each octave in four equal parts by default). From the winners' level
+  *     histogram of a good frame the core takes for the next frame the cut level L and remainder r that give
+  *     exactly `target` features: every winner above level L, the first r in raster order at level L. A frame never gets more than `target` features (winners past it are
   *     deselected); with no history (after reset) the first `target` winners in raster order are taken.
   * So a still scene gives exactly min(target, winners) features from its second frame on; in video the cut
   * follows the scene one frame late. A corner that does not become a feature is deselected and counted.
   *
   * Why these cells: a cell must be complete (its last corner detected, `HarrisConfig.reach` rows later) before
   * the orientation of its first row starts (row y + 15, the raw buffer's 31 rows), so at most 8 rows tall; the
-  * engines' slack of 8 rows then allows about one corner per 256 pixels, and 4 rows by 256 columns with 4 corners
-  * each gives that with room, lets corners cluster (texture is rarely even) and needs at most 8 orientation slots
-  * (a row's corners within 31 columns come from two cells at most).
+  * engines' slack of 8 rows then allows about one corner per 256 pixels (`OrbConfig.budgetService`), and 4 rows by
+  * 256 columns with 4 corners each stays within that, lets corners cluster (texture is rarely even) and needs at
+  * most 8 orientation slots (a row's corners within 31 columns come from two cells at most). Cells of 64 columns
+  * with one corner each have the same bound but keep far fewer corners where texture is uneven.
   *
   * @param defaultTarget the target after reset: 500, OpenCV's `nfeatures` default, below the keyframe store's
   *                      512 entries so that a keyframe is always stored whole */

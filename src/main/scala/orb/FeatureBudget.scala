@@ -275,6 +275,16 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
   }
   io.deselected := counters.deselected
   io.dropped := counters.dropped
+
+  /** Connects the budget behind a detector: the stream position from the line buffer's columns, the detector's
+    * corners and frame ends, the tracker's geometry, the run-time target (from the parent's scope). */
+  def attach(columns: Flow[LineColumn], detector: HarrisDetector, frameGeometry: FrameGeometry, frameTarget: UInt): Unit = {
+    io.pixels << columns.map(_.pixel)
+    io.corners << detector.io.corners
+    io.frameEnds << detector.io.frameEnds
+    io.geometry := frameGeometry
+    io.target := frameTarget
+  }
 }
 
 object FeatureBudget {

@@ -50,11 +50,7 @@ class OrbCore(val cfg: OrbConfig = OrbConfig.default) extends Component {
   io.corners << harris.io.corners
   smoother.io.columns << lines.io.columns
   orientation.io.columns << lines.io.columns
-  budget.io.pixels << lines.io.columns.map(_.pixel)
-  budget.io.corners << harris.io.corners
-  budget.io.frameEnds << harris.io.frameEnds
-  budget.io.geometry := tracker.io.geometry
-  budget.io.target := io.cornerControl.target
+  budget.attach(lines.io.columns, harris, tracker.io.geometry, io.cornerControl.target)
   orientation.io.corners << budget.io.selected
   descriptors.io.smoothed << smoother.io.smoothed
   descriptors.io.corners << orientation.io.oriented

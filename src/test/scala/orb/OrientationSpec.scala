@@ -27,11 +27,7 @@ class OrientationHarness(c: OrbConfig) extends Component {
   harris.io.geometry := tracker.io.geometry
   harris.io.control := io.control
   orientation.io.columns << lines.io.columns
-  budget.io.pixels << lines.io.columns.map(_.pixel)
-  budget.io.corners << harris.io.corners
-  budget.io.frameEnds << harris.io.frameEnds
-  budget.io.geometry := tracker.io.geometry
-  budget.io.target := io.control.target
+  budget.attach(lines.io.columns, harris, tracker.io.geometry, io.control.target)
   orientation.io.corners << budget.io.selected
   io.oriented << orientation.io.oriented
   io.dropped := orientation.io.dropped
