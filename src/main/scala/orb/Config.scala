@@ -343,8 +343,8 @@ case class OrbConfig(frame: FrameConfig = FrameConfig(), harris: HarrisConfig = 
     * at most Tdesc + Tm after its own release when n <= 2 (its engine may wait for the matcher), otherwise at most
     * 2 Tdesc + 3 + (n - 2) S after corner i's release (the matcher may still be busy when i comes). At most k
     * corners per cell, so n <= k x cells(w) x (bands met by d + 1 rows); every band must be served within its own
-    * rows on average; and between frames the matcher also sweeps its store, which must end before the next frame's
-    * first corner is released. None when served, else why not. */
+    * rows on average; a band's winners leave the budget in time; and between frames the matcher also sweeps its
+    * store, which must end before the next frame's first corner is released. None when served, else why not. */
   def budgetService(w: Int, k: Int): Option[String] = {
     val tDesc = DescriptorUnit.maxClocks(descriptor)
     val s = clocksPerFeature
@@ -359,10 +359,16 @@ case class OrbConfig(frame: FrameConfig = FrameConfig(), harris: HarrisConfig = 
     }
     val steady = if (perBand * s <= ch.toLong * w) None
       else Some(s"W = $w: $perBand corners per band of $ch rows need ${perBand * s} clocks, the band has ${ch * w}")
+    // A band's winners leave one per `FeatureBudget.winnerClocks` from its emission row: done before the band two
+    // later (same bank) gets its first corner, and before the band's first row needs its orientation.
+    val emitting = (perBand + 2) * FeatureBudget.winnerClocks
+    val emitRows = (budget.cellHeight - 1) min (OrbDescriptorConfig.patchRadius - budget.cellHeight - budget.emitRowOffset)
+    val emission = if (emitting < emitRows.toLong * w) None
+      else Some(s"W = $w: a band's $perBand winners leave in $emitting clocks, more than $emitRows rows")
     val gapRows = harris.border + OrbDescriptorConfig.startRowOffset + 1 - slack
     val between = if (matcher.frameEndClocks + 2L * s + tDesc < gapRows.toLong * w) None
       else Some(s"W = $w: the matcher's end of frame does not fit between two frames' corners")
-    (windows ++ steady.iterator ++ between.iterator).nextOption()
+    (windows ++ steady.iterator ++ emission.iterator ++ between.iterator).nextOption()
   }
 
   /** Corners kept per cell in lines of `w` pixels: `perCell`, or fewer where the lines are too short for the engines

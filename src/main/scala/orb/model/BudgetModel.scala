@@ -6,7 +6,7 @@ import orb.{BudgetConfig, OrbConfig}
   *
   * Per processed frame: the corners (raster order) are grouped into cells, each cell keeps its `perCell` strongest
   * (`cellWinners`); a band of cells is emitted when the first pixel of row (band end + `emitRowOffset`) is processed
-  * (`emitted`), its winners in raster order; the `Cut` from the previous good frame and the target decide which of
+  * (`emitBeat`), its winners in raster order; the `Cut` from the previous good frame and the target decide which of
   * them become features (`select`); a good frame's winner histogram gives the next cut (`nextCut`). */
 object BudgetModel {
 
@@ -47,7 +47,8 @@ object BudgetModel {
       hist(l) += 1
       val inCut = !cut.history || l > cut.level || (l == cut.level && atCut < cut.remainder)
       val take = taken < target && inCut
-      if (take) { taken += 1; if (cut.history && l == cut.level) atCut += 1 }
+      if (take) taken += 1
+      if (take && cut.history && l == cut.level) atCut += 1
       take
     }
     FrameSelection(selected, winners.size - selected.size, 0, hist.toIndexedSeq)

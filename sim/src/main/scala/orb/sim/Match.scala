@@ -189,7 +189,8 @@ object Match {
     Seq("target" -> o.features, "cell" -> s"${cfg.budget.cellWidth}x${cfg.budget.cellHeight}",
       "per_cell" -> Seq("key" -> cfg.perCellFor(key.width), "live" -> cfg.perCellFor(live.width)),
       "keyframe" -> frame(1), "live" -> frame(processed.size - 1),
-      "timing_drops" -> "none possible: the budget bounds what reaches the engines and the matcher (OrbConfig.budgetService)")
+      "timing_drops" -> ("none possible: the budget bounds what reaches the engines and the matcher (OrbConfig.budgetService); " +
+        "only a correspondence consumer that stalls could cost features, and this run's takes every one"))
   }
 
   def hasVerilator: Boolean =
