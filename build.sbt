@@ -43,7 +43,7 @@ lazy val root: Project = (project in file("."))
   .settings(name := "orb-core", spinalDeps, testSettings,
     // The BRIEF test pattern is data (data/orb_pattern_31.csv) that the generator and the model both read.
     Compile / unmanagedResourceDirectories += baseDirectory.value / "data",
-    Compile / unmanagedResources / includeFilter := "orb_pattern_31.csv" || "*.v" || "*.ys",
+    Compile / unmanagedResources / includeFilter := "orb_pattern_31.csv" || "*.v" || "*.ys" || "*.py",
     Compile / run / aggregate := false,
     Compile / runMain / aggregate := false)
 

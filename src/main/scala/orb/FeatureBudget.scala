@@ -68,12 +68,19 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
   val banks = Vec.fill(2)(Vec.fill(cells)(Vec.fill(k)(Reg(Entry()))))
   for (bank <- banks; cell <- bank; e <- cell) e.valid.init(False)
 
-  // A corner into its cell's list: `ahead` (valid and at least as strong) is a prefix of the sorted list.
+  // A corner into its cell's list, in two clocks: the corner and its list are registered, then the list is updated
+  // (corners are at least two clocks apart after the 3x3 suppression, so the next corner sees the update).
+  // `ahead` (valid and at least as strong) is a prefix of the sorted list.
   val intake = new Area {
-    val c = io.corners
-    val bank = c.y(b.bandShift downto b.bandShift)
-    val cellIndex = c.x(b.cellShift, log2Up(cells max 2) bits)
-    val list = banks(bank)(cellIndex)
+    val c = io.corners.stage()
+    val bank = Reg(UInt(1 bits))
+    val cellIndex = Reg(UInt(log2Up(cells max 2) bits))
+    val list = Reg(Vec.fill(k)(Entry()))
+    when(io.corners.valid) {
+      bank := io.corners.y(b.bandShift downto b.bandShift)
+      cellIndex := io.corners.x(b.cellShift, log2Up(cells max 2) bits)
+      list := banks(io.corners.y(b.bandShift downto b.bandShift))(io.corners.x(b.cellShift, log2Up(cells max 2) bits))
+    }
     val fresh = Entry()
     fresh.valid := True
     fresh.xOffset := c.x.resize(b.cellShift)
@@ -96,7 +103,7 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
     })
     // The list keeps k entries: the corner itself, or the weakest entry it pushes out, is deselected.
     val deselect = c.valid && full
-    when(c.valid) { list := updated }
+    when(c.valid) { banks(bank)(cellIndex) := updated }
   }
 
   // A band is complete at the first pixel of row (band end + emitRowOffset); its winners leave in raster order.
@@ -118,35 +125,42 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
       bank := band(0 downto 0)
       bandY := (band @@ U(0, b.bandShift bits)).resize(f.coordWidth)
     }
-    // The winner that comes first in raster order: row offset, then cell, then column.
-    val entries = banks(bank).zipWithIndex.flatMap { case (list, cell) => list.map(e => (e, U(cell, log2Up(cells max 2) bits))) }
+    // The winner that comes first in raster order (row offset, then cell, then column), in registered steps
+    // within the pace: each cell's first at step 0, the band's first at step 1; at step 2 it leaves and its entry
+    // is emptied, in time for the next winner's step 0.
     case class Candidate() extends Bundle {
       val valid = Bool()
       val key = UInt(b.bandShift + log2Up(cells max 2) + b.cellShift bits)
-      val index = UInt(log2Up(entries.size max 2) bits)
+      val cell = UInt(log2Up(cells max 2) bits)
+      val index = UInt(log2Up(k max 2) bits)
       val score = UInt(h.scoreWidth bits)
     }
-    val candidates = entries.zipWithIndex.map { case ((e, cell), i) =>
-      val cand = Candidate()
-      cand.valid := e.valid
-      cand.key := e.yOffset @@ cell @@ e.xOffset
-      cand.index := i
-      cand.score := e.score
-      cand
+    def earlier(l: Candidate, r: Candidate): Candidate = Mux(l.valid && (!r.valid || l.key <= r.key), l, r)
+    val cellFirsts = Reg(Vec.fill(cells)(Candidate()))
+    for ((list, cell) <- banks(bank).zipWithIndex) {
+      val candidates = list.zipWithIndex.map { case (e, i) =>
+        val cand = Candidate()
+        cand.valid := e.valid
+        cand.key := e.yOffset @@ U(cell, log2Up(cells max 2) bits) @@ e.xOffset
+        cand.cell := cell
+        cand.index := i
+        cand.score := e.score
+        cand
+      }
+      cellFirsts(cell) := candidates.reduceBalancedTree(earlier)
     }
-    val first = candidates.reduceBalancedTree { (l, r) =>
-      Mux(l.valid && (!r.valid || l.key <= r.key), l, r)
-    }
+    val first = RegNext(cellFirsts.reduceBalancedTree(earlier))
     val out = Flow(HarrisCorner(f, h))
-    val now = busy && pace === 0
+    val now = busy && pace === 2
     out.valid := now && first.valid
     out.x := ((first.key.resize(log2Up(cells max 2) + b.cellShift)).resize(f.coordWidth))
     out.y := bandY + first.key(first.key.getWidth - 1 downto first.key.getWidth - b.bandShift).resize(f.coordWidth)
     out.score := first.score
     when(busy) { pace := pace + 1 }
+    when(trigger) { pace := 0 }
     when(now) {
       when(first.valid) {
-        for ((e, i) <- entries.map(_._1).zipWithIndex) when(first.index === i) { e.valid := False }
+        banks(bank)(first.cell)(first.index).valid := False
       } otherwise {
         busy := False
       }
@@ -198,6 +212,7 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
     val deselect = winner.valid && !take
     // the count of the winner's level comes back two clocks later and is written back a clock after that
     val counting = Delay(winner.valid, 2, init = False)
+    val inFlight = winner.valid || RegNext(winner.valid, init = False) || counting
     val countedLevel = Delay(level, 2)
     when(take) {
       cut.taken := cut.taken + 1
@@ -210,10 +225,20 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
   object Phase extends SpinalEnum {
     val run, scan = newElement()
   }
-  // A frame's end (a clock late, after any corner of the same clock): drop what a fault left in the banks, then
-  // walk the histogram from the top level for the next cut (after a good frame), emptying it on the way.
+  // A frame's end waits until the corners before it are in their lists and a band being emitted has left
+  // (the model emits every band whose emission row was processed); then what a fault left in the banks is
+  // dropped, and after a good frame the histogram is walked from the top level for the next cut, emptied on the way.
   val frameEnd = new Area {
-    val end = io.frameEnds.stage()
+    val pending = Reg(Bool()) init False
+    val pendingOk = Reg(Bool()) init False
+    when(io.frameEnds.valid) {
+      pending := True
+      pendingOk := (pending && pendingOk) || io.frameEnds.ok
+    }
+    // nothing in flight: no corner on its way into a list, no band being emitted, no winner's count unwritten
+    val quiet = !io.corners.valid && !intake.c.valid && !emission.busy && !emission.trigger && !decide.inFlight
+    val fire = pending && quiet
+    when(fire) { pending := False }
     // after reset the histogram RAM may hold a cut-off frame's counts: the walk empties it first
     val phase = RegInit(Phase.scan)
     val good = Reg(Bool()) init False
@@ -221,11 +246,11 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
     val above = Reg(UInt(countWidth + 1 bits)) init 0
     val found = Reg(Bool()) init False
     val leftover = CountOne(banks.flatMap(_.flatMap(_.map(_.valid))))
-    val dropped = end.valid ? leftover.resize(f.counterWidth) | U(0, f.counterWidth bits)
-    when(end.valid) {
+    val dropped = RegNext(fire ? leftover.resize(f.counterWidth) | U(0, f.counterWidth bits)) init 0
+    when(fire) {
       for (bank <- banks; cell <- bank; e <- cell) e.valid := False
       phase := Phase.scan
-      good := end.ok
+      good := pendingOk
       issue := levels - 1
       above := 0
       found := False

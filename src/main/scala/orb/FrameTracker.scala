@@ -4,7 +4,8 @@ import spinal.core._
 import spinal.lib._
 
 /** Positions every pixel, learns the frame geometry and polices it; see `orb.model.FrameTrackerModel` for the
-  * rules (the model is the specification, this is a register-for-register mirror). Latency: 1 clock. */
+  * rules (the model is the specification, this is a register-for-register mirror). The pixel beat is registered on
+  * the way in, so the checks start from flip-flops, not from the camera's pins. Latency: `FrameTracker.latency`. */
 class FrameTracker(c: FrameConfig) extends Component {
   val io = new Bundle {
     val pixels = slave Flow (PixelBeat())
@@ -18,8 +19,9 @@ class FrameTracker(c: FrameConfig) extends Component {
   val x, y, lineW, expW, expH = Reg(UInt(cw bits)) init 0
   val frames, badFrames, badLines = Reg(UInt(c.counterWidth bits)) init 0
 
-  val b = io.pixels.payload
-  val fire = io.pixels.valid
+  val input = io.pixels.stage()
+  val b = input.payload
+  val fire = input.valid
 
   // Closing the previous frame on a start of frame.
   val close = new Area {
@@ -109,4 +111,9 @@ class FrameTracker(c: FrameConfig) extends Component {
   io.counters.frames := frames
   io.counters.badFrames := badFrames
   io.counters.badLines := badLines
+}
+
+object FrameTracker {
+  /** clocks from a beat to its tracked pixel: the input register and the checks */
+  val latency: Int = 2
 }

@@ -6,18 +6,19 @@ import spinal.lib.misc.pipeline._
 import Arith._
 
 /** Where each step of the detector sits in its pipeline (node index); a later node means more registers in
-  * between. Steps of one node share a clock; the default puts a register after every adder tree and multiplier. */
-case class HarrisStages(sobel: Int = 0, products: Int = 1, columnPre: Int = 2, columnSum: Int = 3, rowPre: Int = 4,
-                        rowMid: Int = 5, rowSum: Int = 6, multiply: Int = 7, kTrace: Int = 8, response: Int = 9,
-                        suppressRead: Int = 10, segmentCompare: Int = 0, segmentArc: Int = 1) {
+  * between. Steps of one node share a clock; the default registers the input column (it comes from the line
+  * buffer's RAM, across the chip) and puts a register after every adder tree and multiplier. */
+case class HarrisStages(sobel: Int = 1, products: Int = 2, columnPre: Int = 3, columnSum: Int = 4, rowPre: Int = 5,
+                        rowMid: Int = 6, rowSum: Int = 7, multiply: Int = 8, kTrace: Int = 9, response: Int = 10,
+                        suppressRead: Int = 11, segmentCompare: Int = 1, segmentArc: Int = 2) {
   private val order = Seq(sobel, products, columnPre, columnSum, rowPre, rowMid, rowSum, multiply, kTrace, response, suppressRead)
   require(order.head >= 0 && order.zip(order.tail).forall { case (a, b) => b > a },
     "each step needs the previous one's registered result: node indices must strictly increase")
   require(segmentCompare >= 0 && segmentArc > segmentCompare && segmentArc <= response,
     "the segment test compares, then combines arcs a node later, at the latest where the score is formed")
-  /** the window column arrives one node after it is read and is registered once more before the comparisons
-    * (a RAM's output is slow); the corner leaves one node later */
-  def suppress: Int = suppressRead + 2
+  /** the window column arrives `RowWindow.latency` nodes after it is read (through the RAM's output register); the
+    * corner leaves one node later */
+  def suppress: Int = suppressRead + RowWindow.latency
   def output: Int = suppress + 1
   /** clocks from a column at the input to the corner it completes at the output */
   def latency: Int = output
@@ -159,7 +160,7 @@ class HarrisDetector(f: FrameConfig, h: HarrisConfig, columnRows: Int, stages: H
   val suppress = new Area {
     val read = at(stages.suppressRead)
     val scores = new RowWindow(RowWindowConfig(3, f.maxWidth, h.scoreWidth))
-    val WINDOW = at(stages.suppressRead + 1).insert(scores.column(read.isValid, read(PIXEL).x, read(response.SCORE).asBits))
+    val WINDOW = at(stages.suppress).insert(scores.column(read.isValid, read(PIXEL).x, read(response.SCORE).asBits))
     val n = at(stages.suppress)
     val cols = lastValid(Vec(n(WINDOW).map(_.asUInt)), 3, n.isValid) // 0: column x, 1: x-1 (centre), 2: x-2
     // Row 0 is the newest (below the centre), row 2 the oldest (above).
@@ -171,15 +172,15 @@ class HarrisDetector(f: FrameConfig, h: HarrisConfig, columnRows: Int, stages: H
     // so beats still in flight from the previous frame see the right values.
     // (v - reach) in [border, size - 1 - border], without unsigned wrap-around for small frames.
     def inside(v: UInt, size: UInt) = v >= h.border + reach && (v +^ h.border) < (size +^ reach)
-    val isCorner = p.active && centre > io.control.threshold && earlier.map(centre > _).andR && later.map(centre >= _).andR &&
-      inside(p.x, io.geometry.width) && inside(p.y, io.geometry.height)
-    val IS_CORNER = n.insert(isCorner)
+    // The comparisons are registered (into the output node) before they are combined.
+    val TESTS = n.insert(Vec(Seq(p.active, centre > io.control.threshold, inside(p.x, io.geometry.width),
+      inside(p.y, io.geometry.height)) ++ earlier.map(centre > _) ++ later.map(centre >= _)))
     val CENTRE = n.insert(centre)
   }
 
   val outputNode = at(stages.output)
   val output = new outputNode.Area {
-    io.corners.valid := isValid && outputNode(suppress.IS_CORNER)
+    io.corners.valid := isValid && outputNode(suppress.TESTS).andR
     io.corners.x := outputNode(PIXEL).x - reach
     io.corners.y := outputNode(PIXEL).y - reach
     io.corners.score := outputNode(suppress.CENTRE)

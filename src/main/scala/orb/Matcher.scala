@@ -135,8 +135,9 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
     val group = Reg(UInt(groupWidth + 1 bits)) init 0
     val issuing = busy && group < m.groups
     when(issuing) { group := group + 1 }
-    when(keyFeatureReplaces) { busy := True; group := 0 }
-    def keyFeatureReplaces: Bool = load.keyFeature && load.replace
+    // a clock after the replacement, whose write is registered on its way to the RAM
+    val starting = RegNext(load.keyFeature && load.replace) init False
+    when(starting) { busy := True; group := 0 }
   }
 
   // Live features: the scan over the store, one group per clock.
@@ -304,23 +305,26 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
     val emit = valid && cross.mutual && frame.params.crossCheck
   }
 
-  // One write port per lane RAM: keyframe load, scan take-over, mutual mark, sweep clear (never two at once).
+  // One write port per lane RAM: keyframe load, scan take-over, mutual mark, sweep clear (never two at once). The
+  // writes are registered on their way to the RAMs (address, data and enable), so no decision reaches a RAM in the
+  // clock it is made; nothing reads a word in the clock after it is decided (the rescan starts a clock late).
   for ((lane, l) <- lanes.zipWithIndex) {
     def here(sel: UInt): Bool = if (P == 1) True else sel === l
     val loadHere = load.write && here(load.lane)
-    lane.store.write(load.addr, load.entry, loadHere)
+    lane.store.write(RegNext(load.addr), RegNext(load.entry), RegNext(loadHere) init False)
     val c = compare.results(l)
     val markHere = decide.mark && here(decide.markLane)
     val clearHere = swept.valid && here(swept.lane)
-    val scoreWord = Cross(); scoreWord.assignFromBits(item.score.asBits.resize(scoreWord.getBitsWidth))
-    lane.cross.write(
-      address = Mux(loadHere, load.addr, Mux(markHere, decide.markAddr, Mux(clearHere, swept.addr,
-        Mux(keyEnd.busy, keyEnd.group.resize(groupWidth), compare.group)))),
-      data = Mux(loadHere, scoreWord, Mux(clearHere || keyEnd.busy, clearedCross, Mux(markHere, decide.markValue, c.update))),
-      enable = loadHere || markHere || clearHere || keyEnd.busy || c.writeUpdate)
+    val scoreWord = Cross()
+    scoreWord.assignFromBits(item.score.asBits.resize(scoreWord.getBitsWidth))
+    val address = Mux(loadHere, load.addr, Mux(markHere, decide.markAddr, Mux(clearHere, swept.addr,
+      Mux(keyEnd.busy, keyEnd.group.resize(groupWidth), compare.group))))
+    val data = Mux(loadHere, scoreWord, Mux(clearHere || keyEnd.busy, clearedCross, Mux(markHere, decide.markValue, c.update)))
+    val enable = loadHere || markHere || clearHere || keyEnd.busy || c.writeUpdate
+    lane.cross.write(RegNext(address), RegNext(data), RegNext(enable) init False)
   }
 
-  item.ready := !scan.busy && !sweep.busy && !rescan.busy && !keyEnd.busy && paced.itemRoom
+  item.ready := !scan.busy && !sweep.busy && !rescan.busy && !rescan.starting && !keyEnd.busy && paced.itemRoom
 
   val push = output.io.push
   push.valid := decide.emit || swept.emit

@@ -69,5 +69,5 @@ class OrbCore(val cfg: OrbConfig = OrbConfig.default) extends Component {
 
 object OrbCore {
   /** clocks from a pixel entering to the corner it completes leaving (tracker + line buffer + detector) */
-  def latency(stages: HarrisStages = HarrisStages()): Int = 2 + stages.latency
+  def latency(stages: HarrisStages = HarrisStages()): Int = FrameTracker.latency + RowWindow.latency + stages.latency
 }

@@ -53,20 +53,23 @@ class OrientationUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, c
     val col = io.columns.column
     def at(v: Int): UInt = col(R - v) // the pixel v rows below the centre
     val heights = (0 to R).map(vmax).distinct.sorted
-    // T(dh) = sum over |v| <= dh of I(v); TV(dh) = sum over |v| <= dh of v I(v)
-    val t = heights.map(dh => (-dh to dh).map(v => at(v).resize(sumWidth)).reduceBalancedTree(_ + _))
-    val tv = heights.map(dh => (1 to dh).map(v => constMul(at(v), v, sumWidth).intoSInt - constMul(at(-v), v, sumWidth).intoSInt)
-      .reduceBalancedTree(_ + _))
-    // Registered: the slots use them one clock later, with the registered beat.
-    val T = RegNext(Vec(t))
-    val TV = RegNext(Vec(tv))
-    val valid = RegNext(io.columns.valid) init False
-    val x = RegNext(io.columns.pixel.x)
-    val y = RegNext(io.columns.pixel.y)
-    val active = RegNext(io.columns.pixel.active)
-    val keyframe = RegNext(io.columns.pixel.keyframe)
-    val ends = RegNext(io.columns.pixel.ends)
-    val end = RegNext(io.columns.pixel.end)
+    // T(dh) = sum over |v| <= dh of I(v); TV(dh) = sum over |v| <= dh of v I(v); adder trees of up to 31 terms,
+    // registered every `sumLevelsPerStage` levels: the slots use them `sumStages` clocks after the column arrives,
+    // with the beat delayed as much.
+    val t = heights.map(dh => pipelinedTree((-dh to dh).map(v => at(v).resize(sumWidth)), sumLevelsPerStage, sumStages)(_ + _))
+    // (the v-weighted terms, shifts and adds themselves, are registered before their tree)
+    val tv = heights.map(dh => pipelinedTree((1 to dh).map(v => RegNext(constMul(at(v), v, sumWidth).intoSInt - constMul(at(-v), v, sumWidth).intoSInt)),
+      sumLevelsPerStage, sumStages - 1)(_ + _))
+    val T = Vec(t)
+    val TV = Vec(tv)
+    def late[T <: Data](v: T): T = Delay(v, sumStages)
+    val valid = Delay(io.columns.valid, sumStages, init = False)
+    val x = late(io.columns.pixel.x)
+    val y = late(io.columns.pixel.y)
+    val active = late(io.columns.pixel.active)
+    val keyframe = late(io.columns.pixel.keyframe)
+    val ends = late(io.columns.pixel.ends)
+    val end = late(io.columns.pixel.end)
     val frameStart = valid && x === 0 && y === 0
     // Rows and frames counted since reset, the same way the descriptor unit counts them on its stream.
     val rowCount = Reg(UInt(rowCountWidth bits)) init 0
@@ -101,8 +104,19 @@ class OrientationUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, c
 
   // Slots: a corner starts when the stream is at (cx - R, cy + R) and leaves after (cx + R, cy + R).
   // The queue's head through a register: a RAM's output is too slow to decide on in the same clock.
-  val head = queue.io.pop.m2sPipe(flush = sums.frameStart)
-  val startHere = sums.valid && head.valid && sums.y === head.y + R && sums.x === head.x - R
+  // Its start position is computed as it loads (corners lie at least `border` > R from the left edge).
+  case class Waiting() extends Bundle {
+    val corner = HarrisCorner(f, h)
+    val startX, startY = UInt(cw bits)
+  }
+  val head = queue.io.pop.map { c =>
+    val w = Waiting()
+    w.corner := c
+    w.startX := c.x - R
+    w.startY := c.y + R
+    w
+  }.m2sPipe(flush = sums.frameStart)
+  val startHere = sums.valid && head.valid && sums.y === head.startY && sums.x === head.startX
   val slots = for (s <- 0 until d.orientationSlots) yield new Area {
     val busy = Reg(Bool()) init False
     val corner = Reg(HarrisCorner(f, h))
@@ -112,13 +126,17 @@ class OrientationUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, c
     val acc2 = Reg(UInt(acc2Width bits))
     val m01 = Reg(SInt(momentWidth bits))
   }
-  // The start decision, on the registered beat, initialises the chosen slot, which accumulates from the next beat
-  // on: no adder waits for the decision.
-  val free = Vec(slots.map(!_.busy))
+  // The start decision is registered before it reaches the slots: the chosen slot accumulates the beat of its first
+  // column with zero sums (no adder waits for the decision, only a registered select). Starts are at least two
+  // pixels apart after the 3x3 suppression, so a slot is never chosen twice in one clock.
+  val starting = Vec(slots.map(_ => Reg(Bool()) init False))
+  val free = Vec(slots.zip(starting).map { case (slot, st) => !slot.busy && !st })
   val chosen = OHMasking.first(free.asBits)
   val startOk = startHere && free.orR
   val slotDrop = startHere && !free.orR
-  head.ready := startHere || (head.valid && sums.valid && (sums.y > head.y + R || (sums.y === head.y + R && sums.x > head.x - R)))
+  val startCorner = RegNextWhen(head.corner, startOk)
+  for (i <- slots.indices) starting(i) := startOk && chosen(i)
+  head.ready := startHere || (head.valid && sums.valid && (sums.y > head.startY || (sums.y === head.startY && sums.x > head.startX)))
   val staleDrop = head.fire && !startHere // its start column went by (a frame ended early, or the queue was late)
   // A new frame: what is still queued or accumulating belongs to a frame that ended before its rows came.
   queue.io.flush := sums.frameStart
@@ -126,29 +144,33 @@ class OrientationUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, c
   // later, with the beat, and counted then)
   val flushDrops = Mux(sums.frameStart, queue.io.occupancy.resize(f.counterWidth) + U(io.corners.valid).resize(f.counterWidth) +
     U(head.valid).resize(f.counterWidth),
-    U(0, f.counterWidth bits)) + Mux(beat.frameStart, CountOne(slots.map(_.busy)).resize(f.counterWidth), U(0, f.counterWidth bits))
+    U(0, f.counterWidth bits)) + Mux(beat.frameStart, CountOne(slots.zip(starting).map { case (sl, st) => sl.busy || st }).resize(f.counterWidth),
+    U(0, f.counterWidth bits))
 
   val heightOfFirst = sums.heights.indexOf(vmax(R))
   val accumulate = for ((slot, i) <- slots.zipWithIndex) yield new Area {
-    when(startOk && chosen(i)) {
-      slot.busy := True; slot.corner := head.payload; slot.u := -R; slot.height := heightOfFirst
-      slot.acc1 := 0; slot.acc2 := 0; slot.m01 := 0
-    }
-    val last = slot.u === R
+    val first = starting(i)
+    val u = Mux(first, S(-R, 6 bits), slot.u)
+    val height = Mux(first, U(heightOfFirst, slot.height.getWidth bits), slot.height)
+    val acc1 = Mux(first, U(0, acc1Width bits), slot.acc1)
+    val acc2 = Mux(first, U(0, acc2Width bits), slot.acc2)
+    val m01 = Mux(first, S(0, momentWidth bits), slot.m01)
+    when(first) { slot.corner := startCorner }
+    val last = u === R
     when(beat.frameStart) {
       slot.busy := False
-    } elsewhen (beat.valid && slot.busy) {
-      slot.acc1 := slot.acc1 + beat.T(slot.height).resize(acc1Width)
+    } elsewhen (beat.valid && (slot.busy || first)) {
+      slot.acc1 := acc1 + beat.T(height).resize(acc1Width)
       // the running sum of the columns before this one (a2 lags a column behind): no adder waits for acc1's
-      slot.acc2 := slot.acc2 + slot.acc1.resize(acc2Width)
-      slot.m01 := slot.m01 + beat.TV(slot.height).resize(momentWidth)
-      slot.u := slot.u + 1
-      slot.height := sums.index(slot.u + 1)
+      slot.acc2 := acc2 + acc1.resize(acc2Width)
+      slot.m01 := m01 + beat.TV(height).resize(momentWidth)
+      slot.u := u + 1
+      slot.height := sums.index(u + 1)
       slot.busy := !last
     }
     // The last column completes the patch: emitted (from the registers, a clock later) only if no fault came
     // before it in the frame.
-    val emit = RegNext(beat.valid && slot.busy && last && !beat.frameStart && beat.active) init False
+    val emit = RegNext(beat.valid && (slot.busy || first) && last && !beat.frameStart && beat.active) init False
   }
   // The finished patch, a clock after its last column: m10 = 16 a1 - a2 = 15 a1 - a2' (a2' = acc2, a column
   // behind) is formed in the stage after.
@@ -215,4 +237,7 @@ object OrientationUnit {
   val rowCountWidth: Int = 12
   /** frames counted since reset, wrapping: tells a corner's frame from the next few */
   val frameTagWidth: Int = 4
+  /** the shared column sums: adder levels between registers, and clocks from the column to the sums */
+  val sumLevelsPerStage: Int = 2
+  val sumStages: Int = 3
 }

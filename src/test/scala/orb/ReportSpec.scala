@@ -1,12 +1,49 @@
 package orb
 
 import org.scalatest.funsuite.AnyFunSuite
+import spinal.core.Component
 
 import java.io.File
 
 /** `orb.Report --no-timing` on the default configuration: the files, the JSON keys, and figures that agree with
-  * the design (Yosys reads and maps the whole core on the way). */
+  * the design (Yosys reads and maps the whole core on the way); the timing proxy's wrapper and register packing on
+  * its calibration designs (Debian's yosys; place and route stays out of the suite). */
 class ReportSpec extends AnyFunSuite {
+  test("command line: timing options, and clear errors") {
+    assert(Report.parse(Seq("--out", "r", "--seeds", "5", "--only", "core.harris,matcher", "--calibrate")) ==
+      Right(Report.Options(out = "r", seeds = 5, only = Seq("core.harris", "matcher"), calibrate = true)))
+    assert(Report.parse(Seq("--only", "core.nothing")).left.exists(_.contains("unknown --only name 'core.nothing'")))
+    assert(Report.parse(Seq("--seeds", "0")).left.exists(_.contains("positive whole number")))
+    assert(Report.parse(Seq("--seeds")) == Left("--seeds needs a value"))
+    assert(Report.parse(Seq("--fast")).left.exists(_.contains("unknown argument '--fast'")))
+  }
+
+  test("the proxy's wrapper synthesises, and plain registers move into the RAM and multiplier blocks") {
+    val dir = new File("target/report-test/probes")
+    for ((make, expected) <- Seq[(() => Component, String)](
+      (() => new Ecp5Proxy.RamProbe) -> "ram_ports=1 ram_ffs=16 mult_inputs=0 mult_outputs=0 mult_ffs=0",
+      // both operand registers and the product register (16 + 16 + 32 flip-flops)
+      (() => new Ecp5Proxy.MulProbe) -> "ram_ports=0 ram_ffs=0 mult_inputs=2 mult_outputs=1 mult_ffs=64"
+    )) {
+      val r = Generate.spinalConfig(dir.getPath).generate(make())
+      val work = new File(dir, r.toplevelName)
+      Ecp5Proxy.synthesize(Seq("yosys"), work, new File(dir, s"${r.toplevelName}.v"), r.toplevelName)
+      assert(Ecp5Proxy.packRegisters(work) == expected, r.toplevelName)
+      val packed = scala.io.Source.fromFile(new File(work, "packed.json")).mkString
+      if (r.toplevelName == "RamProbe") assert(packed.contains("\"REGMODE_B\": \"OUTREG\"") || packed.contains("\"REGMODE_A\": \"OUTREG\""))
+      else assert(packed.contains("\"REG_OUTPUT_CLK\": \"CLK0\"") && packed.contains("\"REG_INPUTA_CLK\": \"CLK0\""))
+    }
+    // The wrapper: every input from the ring, every output into the tree; no input pin.
+    val ports = Seq(Ecp5Proxy.Port("clk", input = true, 1), Ecp5Proxy.Port("reset", input = true, 1),
+      Ecp5Proxy.Port("io_a", input = true, 16), Ecp5Proxy.Port("io_p", input = false, 32))
+    val w = Ecp5Proxy.wrapper("M", ports)
+    assert(w.contains("module proxy_top (input wire clk, output wire dout);") && w.contains(".io_a(ring[15:0])") &&
+      w.contains(".io_p(outs[31:0])") && w.contains(".reset(reset_q)") && w.contains("assign dout = level3[0];"))
+    assert(Ecp5Proxy.ports(scala.io.Source.fromFile(new File(dir, "MulProbe.v")).mkString, "MulProbe").map(p => p.name -> p.width).toSet ==
+      Set("io_a" -> 16, "io_b" -> 16, "io_product" -> 32, "clk" -> 1, "reset" -> 1))
+  }
+
+
   test("report.json and report.md for the default configuration, without timing") {
     val dir = new File("target/report-test")
     Report.run(Report.Options(out = dir.getPath, timing = false))
@@ -34,6 +71,9 @@ class ReportSpec extends AnyFunSuite {
     assert(number("multipliers") >= 24, "at least the Harris products")
     assert(number("per_cell") == cfg.budget.perCell && number("clocks_per_feature") == cfg.clocksPerFeature &&
       number("descriptor_clocks_max") == DescriptorUnit.maxClocks(cfg.descriptor), "the budget's capacity figures")
+    // Logic elements as two bounds: flip-flops packed with any LUT, or only with the one feeding them.
+    assert(number("les") >= number("les_low") && number("ffs_alone") <= number("ffs") && number("ffs_alone") > 0)
+    assert(number("les") == number("luts") + number("carry_les") + number("ffs_alone"))
     val md = scala.io.Source.fromFile(new File(dir, "report.md")).mkString
     assert(md.contains("## Feature budget capacity"))
     assert(md.contains("| **total** |") && md.contains("Not run (--no-timing)"))

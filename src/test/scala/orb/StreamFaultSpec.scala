@@ -100,6 +100,30 @@ class StreamFaultSpec extends AnyFunSuite {
     println(s"[orb] fault-while-waiting: ${rtl.corners.size} corners, ${rtl.features.size} features, ${rtl.deselected} deselected, ${rtl.featureDrops} counted drops")
   }
 
+  test("a fault a few pixels into a band's emission row: RTL == model, every corner accounted for") {
+    // 6-px checkerboard crossings in 1024-px lines: 4 winners in each of the 4 cells of a band with a crossing row,
+    // whose emission (a winner every few clocks) still runs when the fault's frame end reaches the budget (which
+    // then waits for it). Their descriptors would start 22 rows below them, after the fault: counted drops.
+    val dense = Patterns.checkerboard(config.maxWidth, 80, 6)
+    val w = dense.width
+    val f = Beat.frame(dense).toVector
+    val row = (BudgetModel.emitBeat(42, w, config.budget) / w).toInt
+    val cut = row * w + 10
+    val faulty = f.take(cut) ++ Seq(f(cut).copy(eol = true)) ++ f.drop((row + 1) * w)
+    val beats = f ++ faulty ++ f
+    val model = CoreModel.run(config, beats, harrisOnly)
+    var rtl: RtlResult = null
+    core.doSim("fault-in-emission", seed.toInt) { dut => rtl = CoreSim.run(dut, beats, harrisOnly, Blanking.none, seed) }
+    Scoreboard.compare("fault-in-emission", CoreEvents.of(model), rtl.events, Some(dense)).foreach(msg => fail(msg))
+    assert(rtl.featureStream == model.featureStream, s"feature output (model ${model.features.size}, RTL ${rtl.features.size})")
+    assert(rtl.featureDrops == model.featureDrops && rtl.deselected == model.deselected, "dropped and deselected corners as the model says")
+    val band = (42 >> config.budget.bandShift) << config.budget.bandShift
+    val emitted = model.budget.head._2.selected.count(c => c.y >= band && c.y < band + config.budget.cellHeight)
+    assert(emitted == config.budget.perCell * config.budget.cellsPerRow(w), s"the band's winners are selected in the faulty frame: $emitted")
+    assert(rtl.features.size + rtl.featureDrops + rtl.deselected == rtl.corners.size && rtl.featureDrops >= emitted)
+    println(s"[orb] fault-in-emission: ${rtl.features.size} features, ${rtl.featureDrops} counted drops, $emitted from the band being emitted")
+  }
+
   test("the very first frame, too wide for the line buffer, is never processed") {
     val wide = Beat.frame(GrayImage.tabulate(config.maxWidth + 3, 30)((x, y) => (x * 7 + y * 13) % 256))
     val (_, rtl) = runBoth("first-too-wide", Seq(wide, good, good))

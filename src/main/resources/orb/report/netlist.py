@@ -1,0 +1,306 @@
+#!/usr/bin/env python3
+"""orb.Report's netlist helpers, on yosys / nextpnr JSON files.
+
+`les GENERIC.json`: per module of the generic (Cyclone-II-like) netlist, the flip-flops that cannot share a logic
+element: a flip-flop shares one only with the LUT or carry-chain bit that feeds its D input, and each LUT or carry
+bit with one flip-flop; a flip-flop fed by another flip-flop, a RAM, a port or a second flip-flop of the same LUT
+takes a logic element of its own. Prints `module count` lines.
+
+`pack IN.json OUT.json TOP`: moves plain registers into the RAM and multiplier blocks of a synth_ecp5 netlist.
+
+Quartus packs an M4K's output register and a multiplier's input and output registers into the blocks on Cyclone II;
+yosys maps every RAM with REGMODE NOREG and every multiplier without its registers, so the proxy would charge the
+block's slow unregistered output to the next logic. This pass does what Quartus does, and only where it is exact:
+
+- RAM (DP16KD) port X in NOREG: when every used DOX bit feeds exactly one flip-flop clocked by CLKX, with no reset
+  and the same clock enable, the flip-flops become the port's output register (REGMODE_X = OUTREG, OCEX = their
+  enable) and are removed;
+- multiplier (MULT18X18D): an input (A or B) whose every non-constant bit comes from a flip-flop with no reset and
+  no enable that feeds only multiplier inputs becomes an input register (the flip-flop is removed once nothing else
+  reads it); the product is registered likewise when every used P bit feeds exactly one such flip-flop.
+
+Prints one line: counts of what was packed.
+
+`path REPORT.json NETLIST.json`: the critical path of a nextpnr report, as one line of JSON: source and sink
+registers (net names, kept by the flow), logic levels (LUTs and carry-chain entries, not the hops inside a chain),
+logic and routing delay, the largest fan-out on the path and its net, the RTL lines along it.
+"""
+import json
+import sys
+from collections import defaultdict
+
+
+def sinks_of(module):
+    """net bit -> [(cell, port)] over cell inputs and the module's output ports"""
+    sinks = defaultdict(list)
+    for name, c in module["cells"].items():
+        dirs = c.get("port_directions", {})
+        for port, bits in c["connections"].items():
+            if dirs.get(port) == "input":
+                for b in bits:
+                    if isinstance(b, int):
+                        sinks[b].append((name, port))
+    for pname, p in module["ports"].items():
+        if p["direction"] != "input":
+            for b in p["bits"]:
+                if isinstance(b, int):
+                    sinks[b].append(("$port", pname))
+    return sinks
+
+
+def pack(src, dst, top):
+    with open(src) as f:
+        netlist = json.load(f)
+    module = netlist["modules"][top]
+    cells = module["cells"]
+
+    def bit_sinks():
+        return sinks_of(module)
+
+    def drivers():
+        drv = {}
+        for name, c in cells.items():
+            dirs = c.get("port_directions", {})
+            for port, bits in c["connections"].items():
+                if dirs.get(port) == "output":
+                    for b in bits:
+                        if isinstance(b, int):
+                            drv[b] = (name, port)
+        return drv
+
+    def plain_ff(name, allow_enable):
+        """a flip-flop with no set/reset; returns (clock bit, enable bit or '1') or None"""
+        c = cells.get(name)
+        if c is None or c["type"] != "TRELLIS_FF":
+            return None
+        p, k = c["parameters"], c["connections"]
+        if k.get("LSR", ["0"])[0] != "0":
+            return None
+        if p.get("CLKMUX", "CLK").strip() != "CLK":
+            return None
+        ce_mux = p.get("CEMUX", "1").strip()
+        ce = "1" if ce_mux == "1" else k.get("CE", ["1"])[0]
+        if ce_mux == "INV":
+            return None
+        if ce != "1" and not allow_enable:
+            return None
+        return k["CLK"][0], ce
+
+    packed = {"ram_ports": 0, "ram_ffs": 0, "mult_inputs": 0, "mult_outputs": 0, "mult_ffs": 0}
+    removed = set()
+
+    # ---- RAM output registers ----
+    sinks = bit_sinks()
+    for name, c in list(cells.items()):
+        if c["type"] != "DP16KD":
+            continue
+        for x in ("A", "B"):
+            if c["parameters"].get(f"REGMODE_{x}", "NOREG") != "NOREG":
+                continue
+            clk = c["connections"][f"CLK{x}"][0]
+            outs = [(f"DO{x}{i}", c["connections"].get(f"DO{x}{i}", ["x"])[0]) for i in range(18)]
+            used = [(pin, b) for pin, b in outs if isinstance(b, int) and sinks.get(b)]
+            if not used:
+                continue
+            ffs, enable, ok = [], None, True
+            for pin, b in used:
+                s = sinks[b]
+                if len(s) != 1 or s[0][1] != "DI":
+                    ok = False
+                    break
+                info = plain_ff(s[0][0], allow_enable=True)
+                if info is None or info[0] != clk or (enable is not None and info[1] != enable):
+                    ok = False
+                    break
+                enable = info[1]
+                ffs.append((pin, s[0][0]))
+            if not ok:
+                continue
+            c["parameters"][f"REGMODE_{x}"] = "OUTREG"
+            c["connections"][f"OCE{x}"] = [enable]
+            for pin, ff in ffs:
+                c["connections"][pin] = cells[ff]["connections"]["Q"]
+                del cells[ff]
+                removed.add(ff)
+            packed["ram_ports"] += 1
+            packed["ram_ffs"] += len(ffs)
+
+    # ---- multiplier registers ----
+    sinks = bit_sinks()
+    drv = drivers()
+    mults = [n for n, c in cells.items() if c["type"] == "MULT18X18D"]
+    absorbed_inputs = set()  # flip-flops whose Q now only feeds registered multiplier inputs
+    for name in mults:
+        c = cells[name]
+        k, p = c["connections"], c["parameters"]
+        clock = None
+        # inputs
+        for x in ("A", "B"):
+            if p.get(f"REG_INPUT{x}_CLK", "NONE") != "NONE":
+                continue
+            pins = [f"{x}{i}" for i in range(18)]
+            ffs, ok = {}, True
+            for pin in pins:
+                b = k.get(pin, ["0"])[0]
+                if not isinstance(b, int):
+                    continue
+                d = drv.get(b)
+                if d is None or d[1] != "Q":
+                    ok = False
+                    break
+                info = plain_ff(d[0], allow_enable=False)
+                if info is None or (clock is not None and info[0] != clock):
+                    ok = False
+                    break
+                if any(cells[s[0]]["type"] != "MULT18X18D" if s[0] in cells else True for s in sinks[b]):
+                    ok = False
+                    break
+                clock = info[0]
+                ffs[pin] = d[0]
+            if not ok or not ffs:
+                continue
+            p[f"REG_INPUT{x}_CLK"] = "CLK0"
+            p[f"REG_INPUT{x}_CE"] = "CE0"
+            p[f"REG_INPUT{x}_RST"] = "RST0"
+            for pin, ff in ffs.items():
+                k[pin] = cells[ff]["connections"]["DI"]
+                absorbed_inputs.add(ff)
+            packed["mult_inputs"] += 1
+        # output
+        if p.get("REG_OUTPUT_CLK", "NONE") == "NONE":
+            used = [(f"P{i}", k.get(f"P{i}", ["x"])[0]) for i in range(36)]
+            used = [(pin, b) for pin, b in used if isinstance(b, int) and sinks.get(b)]
+            ffs, ok = [], bool(used)
+            for pin, b in used:
+                s = sinks[b]
+                if len(s) != 1 or s[0][1] != "DI":
+                    ok = False
+                    break
+                info = plain_ff(s[0][0], allow_enable=False)
+                if info is None or (clock is not None and info[0] != clock):
+                    ok = False
+                    break
+                clock = info[0]
+                ffs.append((pin, s[0][0]))
+            if ok:
+                p["REG_OUTPUT_CLK"] = "CLK0"
+                p["REG_OUTPUT_CE"] = "CE0"
+                p["REG_OUTPUT_RST"] = "RST0"
+                for pin, ff in ffs:
+                    k[pin] = cells[ff]["connections"]["Q"]
+                    del cells[ff]
+                    removed.add(ff)
+                    packed["mult_ffs"] += 1
+                packed["mult_outputs"] += 1
+        if clock is not None:
+            k["CLK0"] = [clock]
+            k["CE0"] = ["1"]
+            k["RST0"] = ["0"]
+            c.setdefault("port_directions", {}).update({"CLK0": "input", "CE0": "input", "RST0": "input"})
+    # input flip-flops that nothing but registered multiplier inputs read any more
+    sinks = bit_sinks()
+    for ff in absorbed_inputs:
+        q = cells[ff]["connections"]["Q"][0]
+        if not sinks.get(q):
+            del cells[ff]
+            packed["mult_ffs"] += 1
+
+    with open(dst, "w") as f:
+        json.dump(netlist, f)
+    print(" ".join(f"{k}={v}" for k, v in packed.items()))
+
+
+def path(report_file, netlist_file):
+    with open(report_file) as f:
+        report = json.load(f)
+    with open(netlist_file) as f:
+        netlist = json.load(f)
+    top = next(n for n, m in netlist["modules"].items() if m.get("attributes", {}).get("top"))
+    module = netlist["modules"][top]
+    sinks = sinks_of(module)
+    bit_of = {}
+    for name, n in module["netnames"].items():
+        for i, b in enumerate(n["bits"]):
+            if isinstance(b, int):
+                bit_of[f"{name}[{i}]"] = b
+                if len(n["bits"]) == 1:
+                    bit_of[name] = b
+    cell_q = {}
+    names_of_bit = defaultdict(list)
+    for name, n in module["netnames"].items():
+        for i, b in enumerate(n["bits"]):
+            if isinstance(b, int):
+                names_of_bit[b].append(name if len(n["bits"]) == 1 else f"{name}[{i}]")
+    for name, c in module["cells"].items():
+        if "Q" in c["connections"] and isinstance(c["connections"]["Q"][0], int):
+            cell_q[name] = c["connections"]["Q"][0]
+    paths = report.get("critical_paths", [])
+    if not paths:
+        print(json.dumps({}))
+        return
+    cp = max(paths, key=lambda p: sum(s["delay"] for s in p["path"]))
+    steps = cp["path"]
+    nets = [s for s in steps if s["type"] == "routing"]
+    logic = [s for s in steps if s["type"] == "logic"]
+    # a carry chain counts once: skip logic steps that leave through a carry output into the next carry input
+    levels = sum(1 for s in logic if not s["from"]["port"].startswith("FCI"))
+    fanouts = [(len(sinks.get(bit_of.get(s["net"], -1), [])), s["net"]) for s in nets]
+    worst = max(fanouts) if fanouts else (0, "")
+    sink_cell = steps[-1]["to"]["cell"]
+    sink = sink_cell
+    if sink_cell in cell_q:
+        named = [n for n in names_of_bit[cell_q[sink_cell]] if not n.startswith("$")]
+        if named:
+            sink = min(named, key=len)
+    lines = []
+    for s in nets:
+        for src in s.get("sources", []):
+            if not src.startswith("/") and src not in lines:
+                lines.append(src)
+    print(json.dumps({
+        "from": nets[0]["net"] if nets else steps[0]["from"]["cell"],
+        "to": sink,
+        "delay_ns": round(sum(s["delay"] for s in steps), 3),
+        "logic_ns": round(sum(s["delay"] for s in steps if s["type"] != "routing"), 3),
+        "routing_ns": round(sum(s["delay"] for s in nets), 3),
+        "levels": levels,
+        "max_fanout": worst[0],
+        "max_fanout_net": worst[1],
+        "rtl_lines": lines[:12],
+    }))
+
+
+def les(generic_file):
+    with open(generic_file) as f:
+        netlist = json.load(f)
+    for name, module in netlist["modules"].items():
+        if module.get("attributes", {}).get("blackbox"):
+            continue
+        feeder = {}  # net bit -> cell that can host a flip-flop fed by it
+        for cname, c in module["cells"].items():
+            out = {"$lut": "Y", "ORB_CARRY": "s"}.get(c["type"])
+            if out:
+                for b in c["connections"].get(out, []):
+                    if isinstance(b, int):
+                        feeder[b] = cname
+        claimed, alone = set(), 0
+        for cname, c in module["cells"].items():
+            if c["type"].startswith("$_DFF") or c["type"].startswith("$_SDFF") or c["type"].startswith("$_DLATCH"):
+                d = c["connections"].get("D", ["x"])[0]
+                host = feeder.get(d) if isinstance(d, int) else None
+                if host is not None and host not in claimed:
+                    claimed.add(host)
+                else:
+                    alone += 1
+        print(name, alone)
+
+
+if __name__ == "__main__":
+    if len(sys.argv) == 5 and sys.argv[1] == "pack":
+        pack(*sys.argv[2:5])
+    elif len(sys.argv) == 3 and sys.argv[1] == "les":
+        les(sys.argv[2])
+    elif len(sys.argv) == 4 and sys.argv[1] == "path":
+        path(*sys.argv[2:4])
+    else:
+        sys.exit(__doc__)
