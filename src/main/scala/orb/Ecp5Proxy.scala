@@ -26,9 +26,12 @@ object Ecp5Proxy {
   val yowaspNextpnr = "0.11.1.0.post826"
   val device = "Lattice ECP5 LFE5U-85F speed 6 (nextpnr router2), in a registered wrapper"
   val defaultSeeds: Seq[Int] = Seq(1, 2, 3)
-  /** a congested design plateaus: no better overuse in this many router iterations (after the first `minIters`) */
+  /** a congested design plateaus at a high overuse: no better one in `stallIters` router iterations (after the
+    * first `minIters`); near the end (overuse below `nearlyRouted`) router2 may take longer to clear the last wires */
   val stallIters = 8
   val minIters = 15
+  val nearlyRouted = 100
+  val nearlyRoutedStallIters = 30
 
   final case class Port(name: String, input: Boolean, width: Int)
 
@@ -234,9 +237,13 @@ object Ecp5Proxy {
       if (deadline == Long.MaxValue && lines.exists(_.contains("Running router2"))) deadline = System.nanoTime() + (minutes * 60e9).toLong
       val overuse = lines.flatMap(l => iter.findFirstMatchIn(l).map(m => m.group(1).toInt -> m.group(2).toInt))
       if (overuse.size >= minIters) {
-        val earlier = overuse.dropRight(stallIters).map(_._2).min
-        val recent = overuse.takeRight(stallIters).map(_._2).min
-        if (recent >= earlier) stalled = Some(s"unroutable: routing stalled (overuse $earlier at best, none better in the last $stallIters of ${overuse.size} iterations)")
+        val best = overuse.map(_._2).min
+        val window = if (best < nearlyRouted) nearlyRoutedStallIters else stallIters
+        if (overuse.size > window) {
+          val earlier = overuse.dropRight(window).map(_._2).min
+          val recent = overuse.takeRight(window).map(_._2).min
+          if (recent >= earlier) stalled = Some(s"unroutable: routing stalled (overuse $earlier at best, none better in the last $window of ${overuse.size} iterations)")
+        }
       }
     }
     val finished = !pnr.isAlive()

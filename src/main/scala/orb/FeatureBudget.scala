@@ -125,9 +125,18 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
       bank := band(0 downto 0)
       bandY := (band @@ U(0, b.bandShift bits)).resize(f.coordWidth)
     }
+    // A clock after the trigger the band's lists move out of their bank into registers of their own, which the
+    // choice reads without a bank multiplexer; the bank is empty again at once.
+    val copying = RegNext(trigger) init False
+    val lists = Reg(Vec.fill(cells)(Vec.fill(k)(Entry())))
+    for (list <- lists; e <- list) e.valid.init(False)
+    when(copying) {
+      lists := banks(bank)
+      for (list <- banks(bank); e <- list) e.valid := False
+    }
     // The winner that comes first in raster order (row offset, then cell, then column), in registered steps
     // within the pace: each cell's first at step 0, the band's first at step 1; at step 2 it leaves and its entry
-    // is emptied, in time for the next winner's step 0.
+    // is emptied, in time for the next winner's step 0 (step 0 is the clock after the copy).
     case class Candidate() extends Bundle {
       val valid = Bool()
       val key = UInt(b.bandShift + log2Up(cells max 2) + b.cellShift bits)
@@ -137,7 +146,7 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
     }
     def earlier(l: Candidate, r: Candidate): Candidate = Mux(l.valid && (!r.valid || l.key <= r.key), l, r)
     val cellFirsts = Reg(Vec.fill(cells)(Candidate()))
-    for ((list, cell) <- banks(bank).zipWithIndex) {
+    for ((list, cell) <- lists.zipWithIndex) {
       val candidates = list.zipWithIndex.map { case (e, i) =>
         val cand = Candidate()
         cand.valid := e.valid
@@ -151,16 +160,16 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
     }
     val first = RegNext(cellFirsts.reduceBalancedTree(earlier))
     val out = Flow(HarrisCorner(f, h))
-    val now = busy && pace === 2
+    val now = busy && pace === 2 && !copying
     out.valid := now && first.valid
     out.x := ((first.key.resize(log2Up(cells max 2) + b.cellShift)).resize(f.coordWidth))
     out.y := bandY + first.key(first.key.getWidth - 1 downto first.key.getWidth - b.bandShift).resize(f.coordWidth)
     out.score := first.score
     when(busy) { pace := pace + 1 }
-    when(trigger) { pace := 0 }
+    when(trigger || copying) { pace := 0 }
     when(now) {
       when(first.valid) {
-        banks(bank)(first.cell)(first.index).valid := False
+        lists(first.cell)(first.index).valid := False
       } otherwise {
         busy := False
       }

@@ -53,23 +53,20 @@ class OrientationUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, c
     val col = io.columns.column
     def at(v: Int): UInt = col(R - v) // the pixel v rows below the centre
     val heights = (0 to R).map(vmax).distinct.sorted
-    // T(dh) = sum over |v| <= dh of I(v); TV(dh) = sum over |v| <= dh of v I(v); adder trees of up to 31 terms,
-    // registered every `sumLevelsPerStage` levels: the slots use them `sumStages` clocks after the column arrives,
-    // with the beat delayed as much.
-    val t = heights.map(dh => pipelinedTree((-dh to dh).map(v => at(v).resize(sumWidth)), sumLevelsPerStage, sumStages)(_ + _))
-    // (the v-weighted terms, shifts and adds themselves, are registered before their tree)
-    val tv = heights.map(dh => pipelinedTree((1 to dh).map(v => RegNext(constMul(at(v), v, sumWidth).intoSInt - constMul(at(-v), v, sumWidth).intoSInt)),
-      sumLevelsPerStage, sumStages - 1)(_ + _))
-    val T = Vec(t)
-    val TV = Vec(tv)
-    def late[T <: Data](v: T): T = Delay(v, sumStages)
-    val valid = Delay(io.columns.valid, sumStages, init = False)
-    val x = late(io.columns.pixel.x)
-    val y = late(io.columns.pixel.y)
-    val active = late(io.columns.pixel.active)
-    val keyframe = late(io.columns.pixel.keyframe)
-    val ends = late(io.columns.pixel.ends)
-    val end = late(io.columns.pixel.end)
+    // T(dh) = sum over |v| <= dh of I(v); TV(dh) = sum over |v| <= dh of v I(v)
+    val t = heights.map(dh => (-dh to dh).map(v => at(v).resize(sumWidth)).reduceBalancedTree(_ + _))
+    val tv = heights.map(dh => (1 to dh).map(v => constMul(at(v), v, sumWidth).intoSInt - constMul(at(-v), v, sumWidth).intoSInt)
+      .reduceBalancedTree(_ + _))
+    // Registered: the slots use them one clock later, with the registered beat.
+    val T = RegNext(Vec(t))
+    val TV = RegNext(Vec(tv))
+    val valid = RegNext(io.columns.valid) init False
+    val x = RegNext(io.columns.pixel.x)
+    val y = RegNext(io.columns.pixel.y)
+    val active = RegNext(io.columns.pixel.active)
+    val keyframe = RegNext(io.columns.pixel.keyframe)
+    val ends = RegNext(io.columns.pixel.ends)
+    val end = RegNext(io.columns.pixel.end)
     val frameStart = valid && x === 0 && y === 0
     // Rows and frames counted since reset, the same way the descriptor unit counts them on its stream.
     val rowCount = Reg(UInt(rowCountWidth bits)) init 0
@@ -237,7 +234,4 @@ object OrientationUnit {
   val rowCountWidth: Int = 12
   /** frames counted since reset, wrapping: tells a corner's frame from the next few */
   val frameTagWidth: Int = 4
-  /** the shared column sums: adder levels between registers, and clocks from the column to the sums */
-  val sumLevelsPerStage: Int = 2
-  val sumStages: Int = 3
 }

@@ -38,6 +38,9 @@ object QuartusProject {
       g("VERILOG_INPUT_VERSION", "VERILOG_2001")
       g("NUM_PARALLEL_PROCESSORS", "ALL")
       g("OPTIMIZATION_TECHNIQUE", "SPEED")
+      // The constant tables (cos/sin, test pattern, angle tangents) are logic, as orb.Report counts them: Quartus
+      // may not move them into M4K blocks, which the design uses up to its budget.
+      g("AUTO_ROM_RECOGNITION", "OFF")
       sources.foreach { s =>
         val kind = if (s.endsWith(".v")) "VERILOG_FILE" else if (s.endsWith(".mif")) "MIF_FILE" else "SOURCE_FILE"
         g(kind, s)

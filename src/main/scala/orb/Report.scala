@@ -278,6 +278,7 @@ object Report {
     val md = new StringBuilder
     md ++= s"# Resource report: OrbTop, config ${o.configName} (maxWidth ${cfg.maxWidth}), target ${Device.name}\n\n"
     val flags = (if (o.timing) "" else " --no-timing") + (if (o.timing && o.blockTiming) " --block-timing" else "") +
+      (if (o.timing && o.only.nonEmpty) s" --only ${o.only.mkString(",")}" else "") +
       (if (o.timing && o.calibrate) " --calibrate" else "") + (if (o.timing) s" --seeds ${o.seeds} --timing-minutes ${o.minutes}" else "")
     md ++= s"Produced by `./sbt \"runMain orb.Report --out ${o.out} --config ${o.configName}$flags\"`.\n\n"
     md ++= "| | LEs (est.) | LEs (low) | 4-LUTs | carry LEs | FFs | FFs alone | M4K | 18x18 mult. |\n|---|---:|---:|---:|---:|---:|---:|---:|---:|\n"

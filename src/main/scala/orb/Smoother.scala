@@ -33,14 +33,16 @@ class Smoother(f: FrameConfig, columnRows: Int) extends Component {
     for (r <- blurKernel.indices) n(TAPS)(r) := p.column(r)
   }
 
-  /** Symmetric 7-tap weighted sum in three registered steps: pre-add the mirrored taps at `pre`, weigh them (shifts
-    * and one add each) at the next node, add the four terms (two adder levels) at the one after. */
+  /** Symmetric 7-tap weighted sum in four registered steps: pre-add the mirrored taps at `pre`, weigh them (shifts
+    * and one add each) at the next node, add them in pairs at the one after, and the two halves at the last. */
   private def gauss7(values: collection.IndexedSeq[UInt], pre: Int, width: Int): UInt = {
     val pairs = nodes(pre).insert(Vec(Seq((0, 6), (1, 5), (2, 4)).map { case (i, j) =>
       values(i).resize(width) + values(j).resize(width)
     } :+ values(3).resize(width)))
     val terms = nodes(pre + 1).insert(Vec(nodes(pre + 1)(pairs).zip(blurKernel.take(4)).map { case (v, k) => constMul(v, k, width) }))
-    nodes(pre + 2)(terms).reduceBalancedTree(_ + _)
+    val t = nodes(pre + 2)(terms)
+    val halves = nodes(pre + 2).insert(Vec(t(0) + t(1), t(2) + t(3)))
+    nodes(pre + 3)(halves)(0) + nodes(pre + 3)(halves)(1)
   }
 
   // 255 * 256 = 65280: a column sum fits 16 bits, a 2-D sum 24 bits (the 2-D weights sum to 2^16).
@@ -63,11 +65,11 @@ class Smoother(f: FrameConfig, columnRows: Int) extends Component {
 }
 
 object Smoother {
-  /** nodes: the column sum's three steps end at `columnSum`, the row sum's at `rowSum`, then the rounding, and a
+  /** nodes: the column sum's four steps end at `columnSum`, the row sum's at `rowSum`, then the rounding, and a
     * register to the descriptor store's write data */
-  val columnSum: Int = 2
+  val columnSum: Int = 3
   val rowPre: Int = columnSum + 1
-  val rowSum: Int = rowPre + 2
+  val rowSum: Int = rowPre + 3
   val round: Int = rowSum + 1
   val latency: Int = round + 1
 }

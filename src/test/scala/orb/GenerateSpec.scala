@@ -44,6 +44,7 @@ class GenerateSpec extends AnyFunSuite {
     assert(new File(dir, "OrbTop.qpf").isFile && qsf.isFile)
     val text = scala.io.Source.fromFile(qsf).mkString
     assert(text.contains("-name FAMILY \"Cyclone II\"") && text.contains("-name DEVICE EP2C70F896C6") && text.contains("-name TOP_LEVEL_ENTITY OrbTop"))
+    assert(text.contains("set_global_assignment -name AUTO_ROM_RECOGNITION OFF"), "constant tables stay logic, as counted")
     val named = QuartusProject.namedFiles(qsf)
     assert(named.contains("OrbTop.v") && named.contains("OrbTop.sdc"), named)
     named.foreach(f => assert(new File(dir, f).isFile, s"$f is named by the .qsf but missing"))

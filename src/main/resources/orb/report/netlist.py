@@ -1,10 +1,12 @@
 #!/usr/bin/env python3
 """orb.Report's netlist helpers, on yosys / nextpnr JSON files.
 
-`les GENERIC.json`: per module of the generic (Cyclone-II-like) netlist, the flip-flops that cannot share a logic
-element: a flip-flop shares one only with the LUT or carry-chain bit that feeds its D input, and each LUT or carry
-bit with one flip-flop; a flip-flop fed by another flip-flop, a RAM, a port or a second flip-flop of the same LUT
-takes a logic element of its own. Prints `module count` lines.
+`les GENERIC.json`: per module of the generic (Cyclone-II-like) netlist, the flip-flops that take a logic element
+of their own: a flip-flop shares one only with the LUT or carry-chain bit that feeds its D input, and each LUT or
+carry bit with one flip-flop; a flip-flop fed by another flip-flop, a port or a second flip-flop of the same LUT
+takes a logic element of its own. Two kinds live in the hard blocks instead, as Quartus packs them on Cyclone II:
+the only flip-flop behind a RAM read bit (the M4K's output register) and a flip-flop that feeds nothing but
+multiplier inputs (the multiplier's input register). Prints `module count` lines.
 
 `pack IN.json OUT.json TOP`: moves plain registers into the RAM and multiplier blocks of a synth_ecp5 netlist.
 
@@ -283,11 +285,22 @@ def les(generic_file):
                 for b in c["connections"].get(out, []):
                     if isinstance(b, int):
                         feeder[b] = cname
+        sinks = sinks_of(module)
+        ram_bits = set()
+        for cname, c in module["cells"].items():
+            if c["type"].startswith("$mem"):
+                ram_bits.update(b for b in c["connections"].get("RD_DATA", []) if isinstance(b, int))
         claimed, alone = set(), 0
         for cname, c in module["cells"].items():
             if c["type"].startswith("$_DFF") or c["type"].startswith("$_SDFF") or c["type"].startswith("$_DLATCH"):
                 d = c["connections"].get("D", ["x"])[0]
+                q = c["connections"].get("Q", ["x"])[0]
                 host = feeder.get(d) if isinstance(d, int) else None
+                q_sinks = sinks.get(q, []) if isinstance(q, int) else []
+                if isinstance(d, int) and d in ram_bits and len(sinks.get(d, [])) == 1:
+                    continue  # the M4K's output register
+                if q_sinks and all(module["cells"].get(s, {}).get("type", "").startswith("ORB_MUL") for s, _ in q_sinks):
+                    continue  # the multiplier's input register
                 if host is not None and host not in claimed:
                     claimed.add(host)
                 else:
