@@ -7,10 +7,12 @@ import Arith._
 
 /** Where each step of the detector sits in its pipeline (node index); a later node means more registers in
   * between. Steps of one node share a clock; the default registers the input column (it comes from the line
-  * buffer's RAM, across the chip) and puts a register after every adder tree and multiplier. */
-case class HarrisStages(sobel: Int = 1, products: Int = 2, columnPre: Int = 3, columnSum: Int = 4, rowPre: Int = 5,
-                        rowMid: Int = 6, rowSum: Int = 7, multiply: Int = 8, kTrace: Int = 9, response: Int = 10,
-                        suppressRead: Int = 11, segmentCompare: Int = 1, segmentArc: Int = 2) {
+  * buffer's RAM, across the chip), puts a register after every adder tree and multiplier, and gives the gradients
+  * two registers before the products (the second becomes the multiplier block's input register, the first stays
+  * beside the Sobel adders, so no adder drives the long wires to the multipliers). */
+case class HarrisStages(sobel: Int = 1, products: Int = 3, columnPre: Int = 4, columnSum: Int = 5, rowPre: Int = 6,
+                        rowMid: Int = 7, rowSum: Int = 8, multiply: Int = 9, kTrace: Int = 10, response: Int = 11,
+                        suppressRead: Int = 12, segmentCompare: Int = 1, segmentArc: Int = 2) {
   private val order = Seq(sobel, products, columnPre, columnSum, rowPre, rowMid, rowSum, multiply, kTrace, response, suppressRead)
   require(order.head >= 0 && order.zip(order.tail).forall { case (a, b) => b > a },
     "each step needs the previous one's registered result: node indices must strictly increase")
@@ -47,6 +49,9 @@ class HarrisDetector(f: FrameConfig, h: HarrisConfig, columnRows: Int, stages: H
   val links = (0 until stages.output).map(i => StageLink(nodes(i), nodes(i + 1)))
   def at(i: Int): Node = nodes(i)
 
+  // The run-time parameters, registered here: they come from the register file across the chip and fan out to
+  // every comparator (a write takes effect a clock later; they are constant within a frame).
+  val control = RegNext(io.control)
   val COLUMN = Payload(Vec(UInt(8 bits), HarrisConfig.rawRows))
   val PIXEL = Payload(TrackedPixel(f))
   at(0).driveFrom(io.columns) { (n, p) =>
@@ -91,7 +96,7 @@ class HarrisDetector(f: FrameConfig, h: HarrisConfig, columnRows: Int, stages: H
       val win = lastValid(Vec(compareNode(COLUMN).slice(1, 8)), 8, compareNode.isValid) // win(j)(i): column x - j, row index i + 1
       def px(dx: Int, dy: Int): UInt = win(4 - dx)(3 - dy) // dy > 0 is down, a newer row
       val centre = px(0, 0)
-      val t = io.control.segmentThreshold
+      val t = control.segmentThreshold
       val brighterThan = centre +^ t
       val darkerThan = centre.intoSInt.resize(10) - t.intoSInt.resize(10)
       val ring = SegmentTestConfig.circle.map { case (dx, dy) => px(dx, dy) }
@@ -152,7 +157,7 @@ class HarrisDetector(f: FrameConfig, h: HarrisConfig, columnRows: Int, stages: H
     val r = kTrace.DET.resize(h.responseWidth) - kTrace.KTR2.intoSInt.resize(h.responseWidth)
     val shifted = floorShift(r, h.scoreShift)
     // A pixel that fails the segment test scores 0: it can neither be a corner nor suppress a neighbour.
-    val candidate = segment.fold(True)(seg => !io.control.segmentTest || seg.PASSES)
+    val candidate = segment.fold(True)(seg => !control.segmentTest || seg.PASSES)
     val SCORE = insert(Mux(shifted.sign || !candidate, U(0, h.scoreWidth bits), shifted.asUInt.resize(h.scoreWidth)))
   }
 
@@ -173,7 +178,7 @@ class HarrisDetector(f: FrameConfig, h: HarrisConfig, columnRows: Int, stages: H
     // (v - reach) in [border, size - 1 - border], without unsigned wrap-around for small frames.
     def inside(v: UInt, size: UInt) = v >= h.border + reach && (v +^ h.border) < (size +^ reach)
     // The comparisons are registered (into the output node) before they are combined.
-    val TESTS = n.insert(Vec(Seq(p.active, centre > io.control.threshold, inside(p.x, io.geometry.width),
+    val TESTS = n.insert(Vec(Seq(p.active, centre > control.threshold, inside(p.x, io.geometry.width),
       inside(p.y, io.geometry.height)) ++ earlier.map(centre > _) ++ later.map(centre >= _)))
     val CENTRE = n.insert(centre)
   }
