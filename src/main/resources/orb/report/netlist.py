@@ -88,8 +88,22 @@ def pack(src, dst, top):
             return None
         return k["CLK"][0], ce
 
+    def registers_behind(outputs, clock, allow_enable):
+        """the flip-flops that `outputs` (pin, bit) each feed alone: same clock (`clock`, or the first one's when
+        None), no reset, one common enable; returns (clock, enable, [(pin, flip-flop)]) or None"""
+        found, enable = [], None
+        for pin, b in outputs:
+            s = sinks[b]
+            if len(s) != 1 or s[0][1] != "DI":
+                return None
+            info = plain_ff(s[0][0], allow_enable)
+            if info is None or (clock is not None and info[0] != clock) or (enable is not None and info[1] != enable):
+                return None
+            clock, enable = info
+            found.append((pin, s[0][0]))
+        return clock, enable, found
+
     packed = {"ram_ports": 0, "ram_ffs": 0, "mult_inputs": 0, "mult_outputs": 0, "mult_ffs": 0}
-    removed = set()
 
     # ---- RAM output registers ----
     sinks = bit_sinks()
@@ -104,26 +118,15 @@ def pack(src, dst, top):
             used = [(pin, b) for pin, b in outs if isinstance(b, int) and sinks.get(b)]
             if not used:
                 continue
-            ffs, enable, ok = [], None, True
-            for pin, b in used:
-                s = sinks[b]
-                if len(s) != 1 or s[0][1] != "DI":
-                    ok = False
-                    break
-                info = plain_ff(s[0][0], allow_enable=True)
-                if info is None or info[0] != clk or (enable is not None and info[1] != enable):
-                    ok = False
-                    break
-                enable = info[1]
-                ffs.append((pin, s[0][0]))
-            if not ok:
+            behind = registers_behind(used, clk, allow_enable=True)
+            if behind is None:
                 continue
+            _, enable, ffs = behind
             c["parameters"][f"REGMODE_{x}"] = "OUTREG"
             c["connections"][f"OCE{x}"] = [enable]
             for pin, ff in ffs:
                 c["connections"][pin] = cells[ff]["connections"]["Q"]
                 del cells[ff]
-                removed.add(ff)
             packed["ram_ports"] += 1
             packed["ram_ffs"] += len(ffs)
 
@@ -172,26 +175,15 @@ def pack(src, dst, top):
         if p.get("REG_OUTPUT_CLK", "NONE") == "NONE":
             used = [(f"P{i}", k.get(f"P{i}", ["x"])[0]) for i in range(36)]
             used = [(pin, b) for pin, b in used if isinstance(b, int) and sinks.get(b)]
-            ffs, ok = [], bool(used)
-            for pin, b in used:
-                s = sinks[b]
-                if len(s) != 1 or s[0][1] != "DI":
-                    ok = False
-                    break
-                info = plain_ff(s[0][0], allow_enable=False)
-                if info is None or (clock is not None and info[0] != clock):
-                    ok = False
-                    break
-                clock = info[0]
-                ffs.append((pin, s[0][0]))
-            if ok:
+            behind = registers_behind(used, clock, allow_enable=False) if used else None
+            if behind is not None:
+                clock, _, ffs = behind
                 p["REG_OUTPUT_CLK"] = "CLK0"
                 p["REG_OUTPUT_CE"] = "CE0"
                 p["REG_OUTPUT_RST"] = "RST0"
                 for pin, ff in ffs:
                     k[pin] = cells[ff]["connections"]["Q"]
                     del cells[ff]
-                    removed.add(ff)
                     packed["mult_ffs"] += 1
                 packed["mult_outputs"] += 1
         if clock is not None:
