@@ -219,7 +219,32 @@ case class OrbDescriptorConfig(angleBins: Int = 512, tanFracBits: Int = 18, rota
   require(tanFracBits >= 8 && tanFracBits <= 30 && rotationFracBits >= 8 && rotationFracBits <= 30)
   def binDegrees: Double = 360.0 / angleBins
   def binsPerOctant: Int = angleBins / 8
+  def binsPerQuadrant: Int = angleBins / 4
   def binWidth: Int = log2Up(angleBins)
+  /** Banks of the smoothed-row store: two ring slots each (the last one alone when the count is odd). */
+  def smoothedBanks: Int = (smoothedRows + 1) / 2
+
+  /** cos and sin of bin b's angle, scaled 2^rotationFracBits: cos of bins 0..a quadrant, the rest by symmetry (so
+    * the hardware keeps a quarter of the table). */
+  val quarterCos: IndexedSeq[Long] = (0 to binsPerQuadrant).map { k =>
+    math.round(math.cos(math.toRadians(k * binDegrees)) * (1L << rotationFracBits).toDouble)
+  }
+  def cosSin(bin: Int): (Long, Long) = {
+    val q = bin / binsPerQuadrant
+    val r = bin % binsPerQuadrant
+    val (c, s) = (quarterCos(r), quarterCos(binsPerQuadrant - r))
+    q match {
+      case 0 => (c, s)
+      case 1 => (-s, c)
+      case 2 => (-c, -s)
+      case _ => (s, -c)
+    }
+  }
+  require((0 until angleBins).forall { b =>
+    val t = math.toRadians(b * binDegrees)
+    val scale = (1L << rotationFracBits).toDouble
+    cosSin(b) == ((math.round(math.cos(t) * scale), math.round(math.sin(t) * scale)))
+  }, "the quarter table must give every bin's rounded cos and sin")
 }
 
 object OrbDescriptorConfig {
@@ -265,9 +290,9 @@ case class MatcherConfig(storeCapacity: Int = 512, comparators: Int = 4, popcoun
   require(defaultHammingThreshold >= 0 && defaultHammingThreshold <= 256 && defaultRatio >= 0 && defaultRatio < (2 << ratioFracBits))
   def groups: Int = storeCapacity / comparators
   def ratioWidth: Int = ratioFracBits + 1
-  /** clocks a live feature holds the matcher: the scan, the RAM read, the popcount, the lane register, the merge
-    * levels, the accumulation, the ratio product, one to decide */
-  def clocksPerFeature: Int = groups + 1 + MatcherConfig.popcountStages(this) + 1 + log2Up(comparators) + 1 + 1 + 1
+  /** clocks a live feature holds the matcher: the scan, the RAM read and its output register, the popcount, the lane
+    * register, the merge levels, the accumulation, the ratio product, one to decide */
+  def clocksPerFeature: Int = groups + 2 + MatcherConfig.popcountStages(this) + 1 + log2Up(comparators) + 1 + 1 + 1
   /** an upper bound on the clocks a frame's end item holds the matcher: a live frame's cross-checked entries leave
     * one per clock (storeCapacity), a keyframe's cross-check words are cleared one group per clock, plus the
     * pipeline */
@@ -331,20 +356,39 @@ case class OrbConfig(frame: FrameConfig = FrameConfig(), harris: HarrisConfig = 
   require(descriptor.readyQueueDepth >= budgetPerBand * bandsQueued(OrbDescriptorConfig.patchRadius,
     OrbDescriptorConfig.startRowOffset + descriptor.slackRows), "the descriptor unit's ready queue is too short for the budget's bands")
 
-  /** Clocks the descriptor stage needs per feature in a busy stretch: the matcher's scan, or the engines' time
-    * shared by two engines, whichever is longer; a keyframe feature replacing a weaker entry takes less. */
-  def clocksPerFeature: Int = matcher.clocksPerFeature max ((DescriptorUnit.maxClocks(descriptor) + 1) / 2)
+  /** Clocks the descriptor stage needs per feature in a busy stretch: the matcher's scan, or the engine's time and
+    * its turnaround, whichever is longer; a keyframe feature replacing a weaker entry takes less. */
+  def clocksPerFeature: Int = matcher.clocksPerFeature max (DescriptorUnit.maxClocks(descriptor) + 2 * DescriptorUnit.dispatchClocks)
+
+  /** The latest the last of `n` corners released together into an idle descriptor unit has its descriptor, in
+    * clocks after their release: one engine, at most `DescriptorUnit.maxClocks` a corner, starting a corner
+    * `DescriptorUnit.dispatchClocks` after its release or after handing the previous feature on, which it does only
+    * once the matcher has taken the one before (no credit for the output's registers), the matcher taking one feature
+    * per `matcher.clocksPerFeature`. Every time here only grows when a corner comes later or takes longer (max-plus),
+    * so corners released together bound any window of corners released over time. */
+  def windowClocks(n: Int): Long = {
+    val engine = DescriptorUnit.maxClocks(descriptor).toLong
+    val gap = DescriptorUnit.dispatchClocks.toLong
+    var handedOn = Long.MinValue / 4
+    var taken = Long.MinValue / 4
+    var finished = 0L
+    for (_ <- 0 until n) {
+      val start = gap max (handedOn + gap)
+      finished = start + engine
+      handedOn = (finished max taken) + 1
+      taken = (handedOn + 2) max (taken + matcher.clocksPerFeature)
+    }
+    finished
+  }
 
   /** Why no corner that the budget selects can be dropped for lack of time in lines of `w` pixels with `k` corners
     * per cell, with no blanking at all (blanking only adds time). A corner of row y is released when row y + 22
-    * starts and must be finished before `slackRows` more rows have started. Corners are served in raster order: two
-    * engines, each free again once the matcher has taken its previous feature, the matcher taking one feature per
-    * `clocksPerFeature` (S). If corners i..j (n of them) are released within rows y .. y + d, corner j is finished
-    * at most Tdesc + Tm after its own release when n <= 2 (its engine may wait for the matcher), otherwise at most
-    * 2 Tdesc + 3 + (n - 2) S after corner i's release (the matcher may still be busy when i comes). At most k
-    * corners per cell, so n <= k x cells(w) x (bands met by d + 1 rows); every band must be served within its own
-    * rows on average; a band's winners leave the budget in time; and between frames the matcher also sweeps its
-    * store, which must end before the next frame's first corner is released. None when served, else why not. */
+    * starts and must be finished before `slackRows` more rows have started. Corners are served in raster order; if
+    * corners i..j (n of them) are released within rows y .. y + d, corner j is finished at most `windowClocks(n)`
+    * after corner i's release. At most k corners per cell, so n <= k x cells(w) x (bands met by d + 1 rows); every
+    * band must be served within its own rows on average; a band's winners leave the budget in time; and between
+    * frames the matcher also sweeps its store, which must end before the next frame's first corner is released.
+    * None when served, else why not. */
   def budgetService(w: Int, k: Int): Option[String] = {
     val tDesc = DescriptorUnit.maxClocks(descriptor)
     val s = clocksPerFeature
@@ -353,7 +397,7 @@ case class OrbConfig(frame: FrameConfig = FrameConfig(), harris: HarrisConfig = 
     val perBand = k.toLong * budget.cellsWithCorners(w, harris.border)
     val windows = (0 to 4 * ch + 2 * slack).iterator.flatMap { d =>
       val n = perBand * ((d + ch - 1) / ch + 1)
-      val finish = if (n <= 2) tDesc + matcher.clocksPerFeature + 3L else 2L * tDesc + 3 + (n - 2) * s
+      val finish = windowClocks(n.toInt)
       if (finish < (d + slack).toLong * w) None
       else Some(s"W = $w: $n budget corners in ${d + 1} rows need $finish clocks, the slack gives ${(d + slack) * w}")
     }

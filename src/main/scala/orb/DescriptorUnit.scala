@@ -2,7 +2,8 @@ package orb
 
 import spinal.core._
 import spinal.lib._
-import Arith._
+import orb.model.DescriptorSchedule
+import orb.model.DescriptorSchedule.{groups, lanesPerPort, pointsPerGroup, testsPerGroup}
 
 /** A finished ORB feature. `descriptor(i)` is test i: byte i/8, bit i%8 of OpenCV's descriptor. With `frameEnd`
   * set, the item is no feature but the end of a processed frame, after all of that frame's features. */
@@ -18,26 +19,34 @@ case class OrbFeature(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) e
   val end = FrameEndInfo()
 }
 
-/** Rotated BRIEF, as `orb.model.OrbModel.descriptor`, on a store of smoothed rows.
+/** What the descriptor engine is doing. */
+object EngineState extends SpinalEnum {
+  /** no corner; reading a corner's points; its descriptor is complete; its rows were overwritten before it was */
+  val IDLE, RUN, FINISHED, ABANDONED = newElement()
+}
+
+/** Rotated BRIEF, as `orb.model.OrbModel.descriptor`, on a banked store of smoothed rows.
   *
-  * Store: `smoothedRows` (37 + slackRows) rows, one RAM per row used as a ring; the smoothed stream writes the row
-  * of the current raw row. A corner's 37 rows are complete when row cy + 22 starts; from then on it has
-  * `slackRows` row starts before its oldest row is overwritten, and is dropped (counted) if it is not done by then.
+  * Store: `smoothedRows` (37 + slackRows) rows used as a ring, two per bank (`smoothedBanks` banks of
+  * 2 x maxWidth bytes, two ports each); the smoothed stream writes the row of the current raw row through port A of
+  * its bank. A corner's 37 rows are complete when row cy + 22 starts; from then on it has `slackRows` row starts
+  * before its oldest row is overwritten, and is dropped (counted) if it is not done by then.
   *
-  * Engines: two, in parallel; engine 0 reads every row RAM through its read/write port (never on the row being
-  * written), engine 1 through the second port. The 256 tests go in pairs (2k, 2k + 1) through a pipeline that
-  * rotates their points with the bin's cos/sin (x' = round(x cos - y sin), y' = round(x sin + y cos), half to even)
-  * and decodes their rows; a pair whose four points lie in four different rows is read in one clock, otherwise its
-  * tests go one at a time, and a test whose two points share a row takes two clocks. The decoded ports, the RAMs'
-  * data and the selected values are each registered, so no path crosses two of the 45-row decode, the long wires
-  * to and from the RAMs, and the compare.
-  * Corners
-  * are handed to the engines in turn and their features collected in the same turn, so they leave in raster
-  * order. A consumer that waits holds the collection (two register stages, no FIFO RAM): the engines keep their
-  * results, corners wait in the ready queue, and only a corner whose rows are overwritten before an engine takes it
-  * is dropped (counted). The camera never waits. */
+  * One engine with 8 read lanes, 4 on the banks' A ports and 4 on their B ports. Its front end takes the 256 tests
+  * in 64 groups of 4: the pattern, the rotation with the bin's cos/sin (x' = round(x cos - y sin), y' = round(x sin
+  * + y cos), half to even), the ring slots, and the read schedule of `orb.model.DescriptorSchedule` (`GroupPlanner`):
+  * a group takes one clock when its 8 points fit the lanes, otherwise each half or each test in turn. The front end
+  * depends on nothing read, so it runs ahead of the reads; it holds (`advance` low) while a group takes more than
+  * one clock. Every lane's bank and address are registered before the banks, each bank port picks its address from
+  * the registered lanes beside the RAM, the RAM's data is registered on the way out (the block's output register),
+  * and each lane gets its byte back through two registered levels of selection, then the comparisons.
+  *
+  * Corners are taken in raster order and their features leave in the same order. A consumer that waits holds the
+  * finished feature in the engine (no FIFO RAM): corners wait in the ready queue, and only a corner whose rows are
+  * overwritten before the engine takes it is dropped (counted). The camera never waits. */
 class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) extends Component {
-  import OrbDescriptorConfig.sampleReach
+  import OrbDescriptorConfig.{blurRadius, sampleReach}
+  import OrientationUnit.{frameTagWidth, rowCountWidth}
   val io = new Bundle {
     val smoothed = slave Flow (SmoothedPixel(f))
     val corners = slave Flow (OrientedCorner(f, h, d))
@@ -45,307 +54,544 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
     val dropped = out UInt (f.counterWidth bits)
   }
   val rows = d.smoothedRows
+  val banks = d.smoothedBanks
   val slotWidth = log2Up(rows)
-  val addrWidth = f.addrWidth
-  val span = 2 * sampleReach // rows from the oldest to the newest of a patch
-  /** v mod rows, for 0 <= v < 3 rows */
-  def wrap(v: UInt): UInt = {
-    val w = v.resize(slotWidth + 2)
-    val once = Mux(w >= rows, w - rows, w)
-    Mux(once >= rows, once - rows, once).resize(slotWidth)
+  val bankWidth = log2Up(banks)
+  val colWidth = f.addrWidth
+  val addrWidth = colWidth + 1
+  val magnitudeWidth = d.rotationFracBits + 1 // |cos|, |sin| <= 2^rotationFracBits
+  val patternWidth = 4 // |pattern coordinate| <= 15
+  val offsetWidth = 6 // rotated offsets lie in [-18, 18]
+  val rowOffsetWidth = log2Up(2 * sampleReach + 1) // ry + 18 in [0, 36]
+  val patchRows = 2 * sampleReach + 1
+  require(DescriptorSchedule.banks(d) == banks)
+
+  def nextSlot(s: UInt): UInt = Mux(s === rows - 1, U(0, slotWidth bits), s + 1)
+
+  case class RowInfo() extends Bundle {
+    val active = Bool()
+    val frame = UInt(frameTagWidth bits)
   }
 
-  // The smoothed stream: beat (x, y) carries the smoothed pixel (x - 3, y - 3) of raw row y.
-  val stream = new Area {
+  /** The smoothed stream, a clock late: beat (x, y) carries smoothed pixel (x - 3, y - 3) of raw row y, written
+    * into the ring slot of its row. The registers describe the stream after the newest beat. */
+  val ring = new Area {
     val s = io.smoothed
-    val rowStart = s.valid && s.pixel.x === 0
-    val frameStart = rowStart && s.pixel.y === 0
+    val startsRow = s.valid && s.pixel.x === 0
+    val startsFrame = startsRow && s.pixel.y === 0
     val slot = Reg(UInt(slotWidth bits)) init 0
-    val slotNow = Mux(rowStart, wrap(slot +^ 1), slot)
-    val rowCount = Reg(UInt(OrientationUnit.rowCountWidth bits)) init 0
-    val rowNow = Mux(rowStart, rowCount + 1, rowCount)
-    val frame = Reg(UInt(OrientationUnit.frameTagWidth bits)) init 0
-    val frameNow = Mux(frameStart, frame + 1, frame)
-    when(rowStart) { slot := slotNow; rowCount := rowNow }
-    when(frameStart) { frame := frameNow }
-    // For the last rows: was the first pixel of the row processed, and in which frame. A corner's rows are good iff
-    // the first pixel of its row cy + 22 was processed in its own frame (no fault before it) - the model's rule.
-    case class RowInfo() extends Bundle { val active = Bool(); val frame = UInt(OrientationUnit.frameTagWidth bits) }
+    val slotNext = Mux(startsRow, nextSlot(slot), slot)
+    slot := slotNext
+    val rowCount = Reg(UInt(rowCountWidth bits)) init 0
+    when(startsRow) {
+      rowCount := rowCount + 1
+    }
+    val frame = Reg(UInt(frameTagWidth bits)) init 0
+    val frameNext = Mux(startsFrame, frame + 1, frame)
+    frame := frameNext
+    /** the newest beat started a row */
+    val rowStart = RegNext(startsRow) init False
+    // For the last rows: was the first pixel of the row processed, and in which frame. A corner's rows are good
+    // iff the first pixel of its row cy + 22 was processed in its own frame (no fault before it): the model's rule.
     val history = Vec.fill(d.slackRows)(Reg(RowInfo()))
     history.foreach(_.active.init(False))
-    val thisRow = RowInfo(); thisRow.active := s.pixel.active; thisRow.frame := frameNow
-    val historyNow = Mux(rowStart, Vec(thisRow +: history.init), history)
-    when(rowStart) { history := historyNow }
-    val write = s.valid && s.pixel.x >= OrbDescriptorConfig.blurRadius
-    val writeAddr = (s.pixel.x - OrbDescriptorConfig.blurRadius).resize(addrWidth)
+    val thisRow = RowInfo()
+    thisRow.active := s.pixel.active
+    thisRow.frame := frameNext
+    when(startsRow) {
+      history := Vec(thisRow +: history.init)
+    }
+    // the newest beat's write, decoded for the banks
+    val writes = s.valid && s.pixel.x >= blurRadius
+    val writeBank = RegNext(Mux(writes, UIntToOh((slotNext >> 1).resize(bankWidth), banks), B(0, banks bits))) init 0
+    val writeAddress = RegNext((slotNext.lsb ## (s.pixel.x - blurRadius).resize(colWidth)).asUInt)
+    val writeData = RegNext(s.smoothed)
   }
 
-  /** An oriented corner as it waits for an engine: without its moments, which only the bin needed. */
+  /** An oriented corner as it waits for the engine: without its moments, which only the bin needed. */
   case class ReadyCorner() extends Bundle {
     val corner = HarrisCorner(f, h)
     val bin = UInt(d.binWidth bits)
-    val startRow = UInt(OrientationUnit.rowCountWidth bits)
-    val frameTag = UInt(OrientationUnit.frameTagWidth bits)
+    val startRow = UInt(rowCountWidth bits)
+    val frameTag = UInt(frameTagWidth bits)
     val keyframe, frameEnd = Bool()
     val end = FrameEndInfo()
+  }
+  /** ... with the bin's cos and sin (magnitude and sign), looked up while it waits */
+  case class PreparedCorner() extends Bundle {
+    val item = ReadyCorner()
+    val cos, sin = UInt(magnitudeWidth bits)
+    val cosNegative, sinNegative = Bool()
   }
   val ready = StreamFifo(ReadyCorner(), d.readyQueueDepth)
   ready.io.push.valid := io.corners.valid
   ready.io.push.payload.assignSomeByName(io.corners.payload)
   val queueDrop = io.corners.valid && !ready.io.push.ready
 
-  val tests = Pattern.tests
-  val coordWidth = 6 // rotated offsets lie in [-18, 18]
-  val csWidth = d.rotationFracBits + 2
-  val cosSin = Vec((0 until d.angleBins).map { b =>
-    val (c, s) = orb.model.OrbModel.cosSin(b, d)
-    S(c, csWidth bits) ## S(s, csWidth bits)
-  })
-
-  /** v / 2^rotationFracBits rounded half to even (OpenCV's cvRound), as a rotated offset. */
-  def roundOffset(v: SInt): SInt = {
-    val fb = d.rotationFracBits
-    val q = floorShift(v, fb)
-    val r = v(fb - 1 downto 0).asUInt
-    val half = U(BigInt(1) << (fb - 1), fb bits)
-    val up = r > half || (r === half && q.lsb)
-    (q + Mux(up, S(1, q.getWidth bits), S(0, q.getWidth bits))).resize(coordWidth)
+  /** cos and sin of a bin from a quarter of the table (`OrbDescriptorConfig.cosSin`): the magnitudes of the bin
+    * within its quadrant, registered, then swapped and signed by the quadrant. */
+  val quarterCos = Vec(d.quarterCos.map(c => U(c, magnitudeWidth bits)))
+  val quarterIndexWidth = log2Up(d.binsPerQuadrant + 1)
+  case class CosSinLookup() extends Bundle {
+    val item = ReadyCorner()
+    val quadrant = UInt(2 bits)
+    val c, s = UInt(magnitudeWidth bits)
+  }
+  def lookupCosSin(r: ReadyCorner): CosSinLookup = {
+    val o = CosSinLookup()
+    val within = r.bin.resize(d.binWidth - 2).resize(quarterIndexWidth)
+    o.item := r
+    o.quadrant := r.bin(d.binWidth - 1 downto d.binWidth - 2)
+    o.c := quarterCos(within)
+    o.s := quarterCos(U(d.binsPerQuadrant, quarterIndexWidth bits) - within)
+    o
+  }
+  /** quadrant 0: (c, s), 1: (-s, c), 2: (-c, -s), 3: (s, -c) */
+  def prepare(l: CosSinLookup): PreparedCorner = {
+    val o = PreparedCorner()
+    val odd = l.quadrant.lsb
+    o.item := l.item
+    o.cos := Mux(odd, l.s, l.c)
+    o.sin := Mux(odd, l.c, l.s)
+    o.cosNegative := l.quadrant === 1 || l.quadrant === 2
+    o.sinNegative := l.quadrant.msb
+    o
   }
 
-  case class EnginePort() extends Bundle {
-    val enable = Bool()
-    val address = UInt(addrWidth bits)
-  }
-
-  // The engine's front end: the 128 test pairs (2k, 2k+1) flow through a pipeline that rotates their four points
-  // (a1, a2, b1, b2) and turns them into row RAMs (one-hot) and columns; it depends on nothing read, so it can be
-  // as deep as timing wants. Its stages, one register each:
-  val productWidth = 5 + csWidth
-  case class PairIndex() extends Bundle { val k = UInt(7 bits) }
-  case class PairPattern() extends Bundle { val p = Vec(SInt(5 bits), 8) } // x1 y1 x2 y2 of test 2k, then of 2k+1
-  case class PairProducts() extends Bundle { val xc, ys, xs, yc = Vec(SInt(productWidth bits), 4) }
-  case class PairRotated() extends Bundle { val rx, ry = Vec(SInt(coordWidth bits), 4) }
-  case class PairReads() extends Bundle {
-    val row = Vec(Bits(rows bits), 4)
-    val col = Vec(UInt(addrWidth bits), 4)
-    val sameA, sameB, dual = Bool()
-  }
-  val pairPatterns = Vec((0 until 128).map { k =>
-    val ts = Seq(tests(2 * k), tests(2 * k + 1))
-    ts.flatMap(t => Seq(t.x1, t.y1, t.x2, t.y2)).map(v => S(v, 5 bits).asBits).reduce(_ ## _)
-  })
-
-  val engines = for (e <- 0 until 2) yield new Area {
-    val busy, done, drop = Reg(Bool()) init False
-    val corner = Reg(ReadyCorner())
-    val base = Reg(UInt(slotWidth bits))
-    val rowsLeft = Reg(UInt(log2Up(d.slackRows + 1) bits))
-    val bits = Reg(UInt(9 bits))
-    val descriptor = Reg(Bits(256 bits))
-    val cs = Reg(Bits(2 * csWidth bits))
-    val c = cs(csWidth, csWidth bits).asSInt; val s = cs(0, csWidth bits).asSInt
-    val restart = False.allowOverride() // a corner starts or is given up: empty the front end
-
-    val fetch = new Area {
-      val k = Reg(UInt(8 bits))
-      val pairs = Stream(PairIndex())
-      pairs.valid := busy && !k.msb
-      pairs.k := k.resize(7)
-      when(pairs.fire) { k := k + 1 }
-    }
-    val pattern = fetch.pairs.m2sPipe(flush = restart).map { i =>
-      val o = PairPattern(); val bitsOf = pairPatterns(i.k)
-      for (j <- 0 until 8) o.p(j) := bitsOf((7 - j) * 5, 5 bits).asSInt
-      o
-    }
-    val products = pattern.m2sPipe(flush = restart).map { q =>
-      val o = PairProducts()
-      for (pt <- 0 until 4) {
-        val x = q.p(2 * pt); val y = q.p(2 * pt + 1)
-        o.xc(pt) := x * c; o.ys(pt) := y * s; o.xs(pt) := x * s; o.yc(pt) := y * c
-      }
-      o
-    }
-    // x' = round(x cos - y sin), y' = round(x sin + y cos)
-    val rotated = products.m2sPipe(flush = restart).map { q =>
-      val o = PairRotated()
-      for (pt <- 0 until 4) {
-        o.rx(pt) := roundOffset(q.xc(pt).resize(productWidth + 1) - q.ys(pt))
-        o.ry(pt) := roundOffset(q.xs(pt).resize(productWidth + 1) + q.yc(pt))
-      }
-      o
-    }
-    // Rows are distinct iff the offsets are (the ring holds more than the 37 rows of a patch).
-    val reads = rotated.m2sPipe(flush = restart).map { q =>
-      val o = PairReads()
-      for (pt <- 0 until 4) {
-        val v = base.resize(slotWidth + 1) + (q.ry(pt).resize(coordWidth + 1) + sampleReach).asUInt.resize(slotWidth + 1)
-        o.row(pt) := B((0 until rows).map(r => v === r || v === r + rows))
-        o.col(pt) := (corner.corner.x.intoSInt + q.rx(pt)).asUInt.resize(addrWidth)
-      }
-      o.sameA := q.ry(0) === q.ry(1)
-      o.sameB := q.ry(2) === q.ry(3)
-      o.dual := q.ry.toSeq.combinations(2).map { case Seq(u, v) => u =/= v }.reduce(_ && _)
-      o
-    }.m2sPipe(flush = restart).s2mPipe(flush = restart)
-
-    // Issue: a pair whose four points lie in four rows takes one clock; otherwise its tests go one after the
-    // other, and a test whose two points share a row reads them in two clocks.
-    val issue = new Area {
-      val pair = reads
-      val testB = Reg(Bool()) init False
-      val second = Reg(Bool()) init False
-      val go = busy && pair.valid
-      val dual = pair.dual
-      val same = Mux(testB, pair.sameB, pair.sameA)
-      val first = !same || !second
-      val last = !same || second
-      val readA1 = go && (dual || (!testB && first))
-      val readA2 = go && (dual || (!testB && last))
-      val readB1 = go && (dual || (testB && first))
-      val readB2 = go && (dual || (testB && last))
-      pair.ready := go && (dual || (testB && last))
-      when(go) {
-        second := !last
-        when(!dual && last) { testB := !testB }
-      }
-      when(restart) { testB := False; second := False }
-    }
-    // The decoded ports are registered beside the RAMs and their data registered on the way out, so the long
-    // wires between the engine and the 45 RAMs start and end at flip-flops.
-    val decoded = Vec(EnginePort(), rows)
-    val ports = RegNext(decoded)
-    ports.foreach(_.enable.init(False))
-    for (r <- 0 until rows) {
-      val hits = Seq(issue.readA1, issue.readA2, issue.readB1, issue.readB2).zipWithIndex
-        .map { case (en, pt) => (en && issue.pair.payload.row(pt)(r), issue.pair.payload.col(pt)) }
-      decoded(r).enable := hits.map(_._1).orR
-      decoded(r).address := hits.map { case (hit, col) => Mux(hit, col, U(0, addrWidth bits)) }.reduceBalancedTree(_ | _)
-    }
-
-    // The RAMs' data, registered, three clocks after the issue; a register after the row selection; then the
-    // comparisons.
-    val readData = Vec(UInt(8 bits), rows)
-    val readLatency = 4 // port register, RAM, data register, row selection
-    val rowsD = Delay(issue.pair.row, readLatency - 1)
-    def select(pt: Int): UInt = RegNext((0 until rows).map(r => readData(r) & U(8 bits, default -> rowsD(pt)(r))).reduceBalancedTree(_ | _))
-    /** `b` when the data it goes with arrive; a restart voids what is in flight */
-    def delayed(b: Bool): Bool = (0 until readLatency).foldLeft(b)((v, _) => RegNext(v && !restart) init False)
-    val v1 = select(0); val v2 = select(1); val v3 = select(2); val v4 = select(3)
-    val holdD = delayed(issue.go && !issue.dual && !issue.last)
-    val completesD = delayed(issue.go && (issue.dual || issue.last))
-    val dualD = delayed(issue.go && issue.dual)
-    val testBD = delayed(issue.testB)
-    val pairedD = delayed(issue.go && !issue.dual && issue.same)
-    val p1 = Mux(testBD, v3, v1); val p2 = Mux(testBD, v4, v2)
-    val held = Reg(UInt(8 bits))
-    when(holdD) { held := p1 }
-    val bitFirst = Mux(pairedD, held, p1) < p2
-    val bitB = v3 < v4
-    when(busy && completesD) {
-      when(dualD) {
-        descriptor := bitB ## (v1 < v2) ## descriptor(255 downto 2)
-        bits := bits + 2
-      } otherwise {
-        descriptor := bitFirst ## descriptor(255 downto 1)
-        bits := bits + 1
-      }
-    }
-    when(busy && bits === 256) { busy := False; done := True }
-  }
-
-  // The store: one RAM per row. Port A writes the streamed row or serves engine 0; port B serves engine 1.
-  val store = for (r <- 0 until rows) yield new Area {
-    val ram = Mem(UInt(8 bits), f.maxWidth)
-    val writeHere = stream.write && stream.slotNow === r
-    val e0 = engines(0).ports(r); val e1 = engines(1).ports(r)
-    engines(0).readData(r) := RegNext(ram.readWriteSync(Mux(writeHere, stream.writeAddr, e0.address), io.smoothed.smoothed,
-      writeHere || e0.enable, writeHere))
-    engines(1).readData(r) := RegNext(ram.readSync(e1.address, e1.enable))
-  }
-
-  // Two register stages to the output (no RAM): a consumer that waits holds the collection, then the engines,
-  // then the dispatch; corners queue meanwhile and are dropped only when their rows run out.
+  /** The features leave through two register stages (no RAM). */
   val output = Stream(OrbFeature(f, h, d))
 
-  // Handing corners to the engines in turn.
+  val engine = new DescriptorEngine
+
+  /** Hands the queue's head to the engine. The decision is taken on registered values: the head's row test against
+    * the stream is registered, and it starts a clock later unless a row started in between. */
   val dispatch = new Area {
-    val next = Reg(UInt(1 bits)) init 0
-    val head = ready.io.pop.m2sPipe() // a RAM output is too slow to decide on in the same clock
-    val since = (stream.rowNow - head.startRow).asSInt // rows since the patch was complete (negative: not yet)
-    val due = head.valid && !head.frameEnd && !since.msb
+    val head = ready.io.pop.m2sPipe().map(lookupCosSin).m2sPipe().map(prepare).m2sPipe()
+    val c = head.payload.item
+    // rows since the patch was complete (negative: not yet)
+    val since = (ring.rowCount - c.startRow).asSInt
+    val due = head.valid && !c.frameEnd && !since.msb
     val late = since.asUInt >= d.slackRows
-    val row = stream.historyNow(since.asUInt.resize(log2Up(d.slackRows max 2)))
-    val dataOk = row.active && row.frame === head.frameTag
-    val engineFree = Vec(engines.map(e => !e.busy && !e.done))(next)
-    // A frame end leaves when every corner before it has: both engines idle and collected.
-    val marker = head.valid && head.frameEnd && engines.map(e => !e.busy && !e.done).andR
-    head.ready := (due && (engineFree || late || !dataOk)) || (marker && output.ready)
-    val start = due && engineFree && !late && dataOk
-    val refused = head.fire && !start && !head.frameEnd
-    for ((e, i) <- engines.zipWithIndex) when(start && next === i) {
-      e.busy := True; e.drop := False; e.restart := True
-      e.corner := head.payload
-      // the newest patch row (cy + 18) is in the slot of raw row cy + 21, `since + 1` rows back
-      e.base := wrap(stream.slotNow.resize(slotWidth + 2) + (2 * rows - 1 - span) - since.asUInt.resize(slotWidth + 2))
-      e.rowsLeft := (d.slackRows - since.asUInt).resize(e.rowsLeft.getWidth)
-      e.fetch.k := 0; e.bits := 0
-      e.cs := cosSin(head.bin)
+    val row = ring.history(since.asUInt.resize(log2Up(d.slackRows max 2)))
+    val dataOk = row.active && row.frame === c.frameTag
+    val idle = engine.state === EngineState.IDLE
+    val startNext = RegNext(due && !late && dataOk && idle && !head.fire) init False
+    val refuseNext = RegNext(due && (late || !dataOk) && !head.fire) init False
+    // the newest patch row (cy + 18) is in the slot of raw row cy + 21, `since + 1` rows back; the oldest 36 more
+    val back = ring.slot.resize(slotWidth + 2).asSInt - since.resize(slotWidth + 2) - S(patchRows, slotWidth + 2 bits)
+    val base = RegNext(Mux(back.msb, back + S(rows, slotWidth + 2 bits), back).asUInt.resize(slotWidth))
+    val leftWidth = log2Up(d.slackRows + 1)
+    val rowsLeft = RegNext((S(d.slackRows, leftWidth + 1 bits) - since.resize(leftWidth + 1)).asUInt.resize(leftWidth))
+    val start = startNext && !ring.rowStart
+    val refuse = refuseNext
+    // A frame end leaves when every corner before it has: the engine idle.
+    val marker = head.valid && c.frameEnd && idle
+    head.ready := start || refuse || (marker && output.ready)
+    when(start) {
+      engine.begin(head.payload, base, rowsLeft)
     }
-    when(start) { next := next + 1 }
-  }
-  // A row start overwrites the oldest slot: an engine whose slack runs out gives up its corner.
-  for (e <- engines) when(stream.rowStart && e.busy) {
-    e.rowsLeft := e.rowsLeft - 1
-    when(e.rowsLeft === 1 && e.bits =/= 256) { e.busy := False; e.done := True; e.drop := True; e.restart := True }
   }
 
-  // Collecting in the same turn keeps raster order.
-  val collect = new Area {
-    val next = Reg(UInt(1 bits)) init 0
-    val e = Vec(engines.map(_.done))(next)
-    val drop = Vec(engines.map(_.drop))(next)
-    val sel = engines.map(_.corner)
-    val corner = Vec(sel)(next)
-    output.valid := (e && !drop) || dispatch.marker
-    output.frameEnd := dispatch.marker
-    output.end := dispatch.head.end
-    output.x := corner.corner.x
-    output.y := corner.corner.y
-    output.bin := corner.bin
-    output.keyframe := Mux(dispatch.marker, dispatch.head.end.keyframe, corner.keyframe)
-    output.score := corner.corner.score
-    output.descriptor := Vec(engines.map(_.descriptor))(next)
-    val engineDrop = e && drop
-    when(e && (drop || output.ready)) {
-      next := next + 1
-      for ((en, i) <- engines.zipWithIndex) when(next === i) { en.done := False }
+  /** The engine's state lives here; `begin` is its only entry. */
+  class DescriptorEngine extends Area {
+    val state = RegInit(EngineState.IDLE)
+    val corner = Reg(ReadyCorner())
+    val cos, sin = Reg(UInt(magnitudeWidth bits))
+    val cosNegative, sinNegative = Reg(Bool())
+    val base = Reg(UInt(slotWidth bits))
+    val rowsLeft = Reg(UInt(log2Up(d.slackRows + 1) bits))
+    val running = state === EngineState.RUN
+    /** a row start overwrote the oldest row before the descriptor was complete */
+    val abandon = ring.rowStart && running && rowsLeft === 1
+
+    def begin(c: PreparedCorner, b: UInt, left: UInt): Unit = {
+      state := EngineState.RUN
+      corner := c.item
+      cos := c.cos
+      sin := c.sin
+      cosNegative := c.cosNegative
+      sinNegative := c.sinNegative
+      base := b
+      rowsLeft := left
+      fetch.group := 0
+      collect.done := 0
     }
-    io.features << output.s2mPipe().m2sPipe()
+
+    when(ring.rowStart && running) {
+      rowsLeft := rowsLeft - 1
+    }
+
+    /** Advances the front end: low while the issue stage repeats a group (registered: see `issue`). */
+    val advance = RegInit(True)
+    def step[T <: Data](v: T): T = RegNextWhen(v, advance)
+    def stepValid(v: Bool): Bool = {
+      val r = RegNextWhen(v, advance) init False
+      when(abandon) {
+        r := False
+      }
+      r
+    }
+
+    // ---- front end: depends on nothing read ----
+    val fetch = new Area {
+      val group = Reg(UInt(log2Up(groups + 1) bits)) init groups
+      val valid = running && group < groups
+      when(advance && valid) {
+        group := group + 1
+      }
+    }
+    /** The pattern as magnitudes and signs: the multipliers see only non-negative operands (no sign extension). */
+    val pattern = new Area {
+      val rom = Vec((0 until groups).map { g =>
+        val values = (0 until testsPerGroup).flatMap { k =>
+          val t = Pattern.tests(testsPerGroup * g + k)
+          Seq(t.x1, t.y1, t.x2, t.y2)
+        }
+        require(values.forall(_.abs < (1 << patternWidth)))
+        values.map(v => Bool(v < 0) ## U(v.abs, patternWidth bits)).reverse.reduce(_ ## _)
+      })
+      // the table's output registered beside it, then a copy that feeds only the multipliers (their input registers)
+      val valid = stepValid(stepValid(fetch.valid))
+      val bits = step(step(rom(fetch.group.resize(log2Up(groups)))))
+      private def field(k: Int): Bits = bits(k * (patternWidth + 1), patternWidth + 1 bits)
+      /** point i: |x|, x < 0, |y|, y < 0 */
+      def x(i: Int): UInt = field(2 * i).resize(patternWidth).asUInt
+      def xNegative(i: Int): Bool = field(2 * i).msb
+      def y(i: Int): UInt = field(2 * i + 1).resize(patternWidth).asUInt
+      def yNegative(i: Int): Bool = field(2 * i + 1).msb
+    }
+    // the multipliers' other operands, in plain registers (no enable): the blocks' input registers
+    val cosM = RegNext(cos)
+    val sinM = RegNext(sin)
+    val productWidth = patternWidth + magnitudeWidth
+    /** |x cos|, |y sin|, |x sin|, |y cos|; x' = x cos - y sin = sx (|x cos| -+ |y sin|) and y' = x sin + y cos =
+      * sy (|x sin| +- |y cos|), with the signs of the terms */
+    case class Products() extends Bundle {
+      val xc, ys, xs, yc = UInt(productWidth bits)
+      val xSubtract, ySubtract, xNegative, yNegative = Bool()
+    }
+    val products = new Area {
+      val valid = stepValid(pattern.valid)
+      val p = (0 until pointsPerGroup).map { i =>
+        val o = Products()
+        o.xc := pattern.x(i) * cosM
+        o.ys := pattern.y(i) * sinM
+        o.xs := pattern.x(i) * sinM
+        o.yc := pattern.y(i) * cosM
+        val xcNegative = pattern.xNegative(i) ^ cosNegative
+        val ysNegative = pattern.yNegative(i) ^ sinNegative
+        val xsNegative = pattern.xNegative(i) ^ sinNegative
+        val ycNegative = pattern.yNegative(i) ^ cosNegative
+        o.xSubtract := xcNegative === ysNegative
+        o.ySubtract := xsNegative =/= ycNegative
+        o.xNegative := xcNegative
+        o.yNegative := xsNegative
+        step(o)
+      }
+    }
+    // |x'| and |y'| before rounding half to even: the bits from the half upwards and whether any bit below the half
+    // is set (rounding is symmetric, so the sign comes after)
+    val fb = d.rotationFracBits
+    val sumWidth = productWidth + 2
+    case class Sum() extends Bundle {
+      val high = SInt(sumWidth + 1 - fb bits)
+      val sticky = Bool()
+      val negative = Bool()
+    }
+    /** a + b or a - b in one adder: (2a + 1) + (2 (b xor s) + s), halved */
+    def addSub(a: UInt, b: UInt, subtract: Bool): SInt = {
+      val ext = (a.resize(sumWidth) ## True).asUInt
+      val other = ((b.resize(sumWidth).asBits ^ B(sumWidth bits, default -> subtract)) ## subtract).asUInt
+      (ext + other)(sumWidth downto 1).asSInt
+    }
+    def sum(v: SInt, negative: Bool): Sum = {
+      val o = Sum()
+      o.high := v(v.high downto fb - 1)
+      o.sticky := v(fb - 2 downto 0).orR
+      o.negative := negative
+      o
+    }
+    val sums = new Area {
+      val valid = stepValid(products.valid)
+      val x = products.p.map(p => step(sum(addSub(p.xc, p.ys, p.xSubtract), p.xNegative)))
+      val y = products.p.map(p => step(sum(addSub(p.xs, p.yc, p.ySubtract), p.yNegative)))
+    }
+    /** floor(v / 2^fb) + 1 when the rest is above the half, or exactly the half and the floor odd (cvRound), then
+      * the sign */
+    def round(s: Sum): SInt = {
+      val q = s.high(s.high.high downto 1)
+      val up = s.high(0) && (s.sticky || q.lsb)
+      val rounded = (q + Mux(up, S(1, q.getWidth bits), S(0, q.getWidth bits))).resize(offsetWidth)
+      Mux(s.negative, -rounded, rounded)
+    }
+    val rotated = new Area {
+      val valid = stepValid(sums.valid)
+      val rx = sums.x.map(s => step(round(s)))
+      // ry + 18, in [0, 36]
+      val rowOffset = sums.y.map { s =>
+        step((round(s).resize(offsetWidth + 1) + S(sampleReach, offsetWidth + 1 bits)).asUInt.resize(rowOffsetWidth))
+      }
+    }
+    /** A point on its way to the issue stage: its ring slot and column offset. */
+    case class Located() extends Bundle {
+      val slot = UInt(slotWidth bits)
+      val rx = SInt(offsetWidth bits)
+    }
+    val located = new Area {
+      val valid = stepValid(rotated.valid)
+      val points = (0 until pointsPerGroup).map { i =>
+        val o = Located()
+        val near = base.resize(slotWidth + 2) + rotated.rowOffset(i).resize(slotWidth + 2)
+        val wrapped = near.asSInt - S(rows, slotWidth + 2 bits)
+        o.slot := Mux(wrapped.msb, near, wrapped.asUInt).resize(slotWidth)
+        o.rx := rotated.rx(i)
+        step(o)
+      }
+      val portB = (0 until pointsPerGroup).map(i => step(rotated.rowOffset(i) === 0 || rotated.rowOffset(i) === 2 * sampleReach))
+    }
+    val planner = new GroupPlanner(bankWidth)
+    planner.io.advance := advance
+    for (i <- 0 until pointsPerGroup) {
+      planner.io.points(i).bank := (located.points(i).slot >> 1).resize(bankWidth)
+      planner.io.points(i).portB := located.portB(i)
+    }
+    val planned = new Area {
+      val valid = (0 until GroupPlanner.latency).foldLeft(located.valid)((v, _) => stepValid(v))
+      val points = (0 until GroupPlanner.latency).foldLeft(Vec(located.points))((v, _) => step(v))
+      val plan = planner.io.plan
+      val single = plan.issues === 1
+    }
+
+    // ---- issue: a group's clocks one after the other ----
+    /** What a clock's reads mean for the tests of the group: per test, whether it completes, through which lanes
+      * its points come, and whether its first point was read a clock earlier (held). */
+    case class Reads() extends Bundle {
+      val valid = Bool()
+      val completes, held = Bits(testsPerGroup bits)
+      val lane1, lane2 = Vec(UInt(GroupPlanner.laneWidth bits), testsPerGroup)
+      /** a test's first point read alone (through lane 4): keep it for the next clock */
+      val hold = Bool()
+      /** the group's last clock */
+      val last = Bool()
+    }
+    /** A lane's read: ring slot and column. */
+    case class LaneRead() extends Bundle {
+      val valid = Bool()
+      val slot = UInt(slotWidth bits)
+      val rx = SInt(offsetWidth bits)
+    }
+    val issue = new Area {
+      val valid = RegNextWhen(planned.valid, advance) init False
+      val points = step(planned.points)
+      val plan = step(planned.plan)
+      val clock = Reg(UInt(GroupPlanner.issueWidth bits)) init 0
+      // The front end advances in the clock after a group's last: registered, from the group that comes next.
+      advance := Mux(advance, !planned.valid || planned.single, (clock +^ 2) === plan.issues)
+      when(advance) {
+        clock := 0
+      } otherwise {
+        clock := clock + 1
+      }
+      when(abandon) {
+        valid := False
+        advance := True
+      }
+      val now = (0 until pointsPerGroup).map(i => plan.issue(i) === clock)
+      val lanes = Vec((0 until 2 * lanesPerPort).map { l =>
+        val hits = (0 until pointsPerGroup).map(i => valid && now(i) && plan.lane(i) === l)
+        val o = LaneRead()
+        o.valid := hits.orR
+        o.slot := hits.zip(points).map { case (hit, p) => Mux(hit, p.slot, U(0, slotWidth bits)) }.reduceBalancedTree(_ | _)
+        o.rx := hits.zip(points).map { case (hit, p) => Mux(hit, p.rx.asBits, B(0, offsetWidth bits)) }.reduceBalancedTree(_ | _).asSInt
+        o
+      })
+      val reads = Reads()
+      reads.valid := valid
+      for (t <- 0 until testsPerGroup) {
+        reads.completes(t) := valid && now(2 * t + 1)
+        reads.held(t) := plan.issue(2 * t) =/= plan.issue(2 * t + 1)
+        reads.lane1(t) := plan.lane(2 * t)
+        reads.lane2(t) := plan.lane(2 * t + 1)
+      }
+      reads.hold := valid && (0 until testsPerGroup).map(t => now(2 * t) && !now(2 * t + 1)).orR
+      reads.last := valid && (clock +^ 1) === plan.issues
+    }
+
+    // ---- reads ----
+    /** A lane's read: its bank and the address within the bank. */
+    case class LaneAddress() extends Bundle {
+      val valid = Bool()
+      val bank = UInt(bankWidth bits)
+      val address = UInt(addrWidth bits)
+    }
+    /** A lane as a cluster of four banks sees it: which of its banks it reads (none when idle), and where. */
+    case class ClusterPort() extends Bundle {
+      val hits = Bits(4 bits)
+      val address = UInt(addrWidth bits)
+    }
+    /** `r` a clock later; an abandoned corner's reads in flight are void */
+    def delayed(r: Reads): Reads = {
+      val o = RegNext(r)
+      o.valid.init(False)
+      when(abandon) {
+        o.valid := False
+      }
+      o
+    }
+    val clusters = (banks + 3) / 4
+    val read = new Area {
+      val lanes = RegNext(issue.lanes)
+      lanes.foreach(_.valid.init(False))
+      val reads1 = delayed(issue.reads)
+      // bank and column, once per lane
+      val located = Vec(lanes.map { l =>
+        val o = LaneAddress()
+        val column = (corner.corner.x.intoSInt + l.rx).asUInt.resize(colWidth)
+        o.valid := l.valid
+        o.bank := (l.slot >> 1).resize(bankWidth)
+        o.address := (l.slot.lsb ## column).asUInt
+        val r = RegNext(o)
+        r.valid.init(False)
+        r
+      })
+      val reads2 = delayed(reads1)
+      // A registered copy of every lane per cluster, decoded for its banks: the long wires to the banks end here,
+      // and each bank port picks its address from beside it.
+      val ports = Vec((0 until clusters).map { k =>
+        Vec(located.map { l =>
+          val o = ClusterPort()
+          o.hits := B((0 until 4).map(j => l.valid && l.bank === 4 * k + j))
+          o.address := l.address
+          val r = RegNext(o)
+          r.hits.init(0)
+          r
+        })
+      })
+      val reads3 = delayed(reads2)
+      // the bank number goes on with the reads, to pick the data on the way back
+      val bank3 = RegNext(Vec(located.map(_.bank)))
+    }
+    /** A bank port's read this clock: lanes 0-3 on port A, lanes 4-7 on port B (at most one each). */
+    def portRead(bank: Int, portB: Boolean): (Bool, UInt) = {
+      val ls = if (portB) lanesPerPort until 2 * lanesPerPort else 0 until lanesPerPort
+      val ports = ls.map(read.ports(bank / 4)(_))
+      val address = ports.map(p => Mux(p.hits(bank % 4), p.address, U(0, addrWidth bits))).reduceBalancedTree(_ | _)
+      (ports.map(_.hits(bank % 4)).orR, address)
+    }
+    // the data of every bank port, registered (the RAM's output register), two clocks after the cluster copies
+    val portA = Vec(UInt(8 bits), banks)
+    val portBData = Vec(UInt(8 bits), banks)
+    val back = new Area {
+      val reads4 = delayed(read.reads3)
+      val reads5 = delayed(reads4)
+      val bank4 = RegNext(read.bank3)
+      val bank5 = RegNext(bank4)
+      // level 1: within each cluster, by the bank's low bits (beside the banks)
+      def dataOf(l: Int): Vec[UInt] = if (l < lanesPerPort) portA else portBData
+      val level1 = Vec(read.lanes.indices.map { l =>
+        Vec((0 until clusters).map { k =>
+          val members = (4 * k until (4 * k + 4 min banks)).map(dataOf(l)(_))
+          val padded = members ++ Seq.fill(4 - members.size)(U(0, 8 bits))
+          RegNext(Vec(padded)(bank5(l).resize(2)))
+        })
+      })
+      val reads6 = delayed(reads5)
+      val bank6 = RegNext(bank5)
+      // level 2: the cluster
+      val value = Vec(read.lanes.indices.map { l =>
+        val k = (bank6(l) >> 2).resize(log2Up(clusters max 2))
+        RegNext(level1(l)(k))
+      })
+      val reads7 = delayed(reads6)
+    }
+
+    // ---- compare and collect ----
+    val collect = new Area {
+      val done = Reg(UInt(log2Up(groups + 1) bits)) init 0
+      val r = back.reads7
+      val held = Reg(UInt(8 bits))
+      when(r.valid && r.hold) {
+        held := back.value(lanesPerPort)
+      }
+      val first = Vec((0 until testsPerGroup).map(t => Mux(r.held(t), held, back.value(r.lane1(t)))))
+      val second = Vec((0 until testsPerGroup).map(t => back.value(r.lane2(t))))
+      val firsts = RegNext(first)
+      val seconds = RegNext(second)
+      val reads8 = delayed(r)
+      val bits = Reg(Bits(testsPerGroup bits))
+      val results = Vec((0 until testsPerGroup).map(t => Mux(reads8.completes(t), firsts(t) < seconds(t), bits(t))))
+      val descriptor = Reg(Bits(256 bits))
+      when(reads8.valid) {
+        bits := results.asBits
+        when(reads8.last) {
+          descriptor := results.asBits ## descriptor(255 downto testsPerGroup)
+          done := done + 1
+          when(done === groups - 1) {
+            state := EngineState.FINISHED
+          }
+        }
+      }
+    }
+    when(abandon) {
+      state := EngineState.ABANDONED
+    }
   }
+
+  // The store: bank b holds ring slots 2b and 2b + 1 at (slot & 1) ## column (a single slot has no such bit).
+  // Port A writes the stream, which has priority (no point reads the written row's bank through port A: see
+  // `DescriptorSchedule`), or reads lanes 0-3; port B reads lanes 4-7.
+  val store = for (b <- 0 until banks) yield new Area {
+    val pair = 2 * b + 1 < rows
+    val depth = (if (pair) 2 else 1) << colWidth
+    val ram = Mem(UInt(8 bits), depth)
+    val w = ring.writeBank(b)
+    val (enableA, addressA) = engine.portRead(b, portB = false)
+    val (enableB, addressB) = engine.portRead(b, portB = true)
+    def local(a: UInt): UInt = a.resize(log2Up(depth))
+    val a = ram.readWriteSync(local(Mux(w, ring.writeAddress, addressA)), ring.writeData, w || enableA, w)
+    val bRead = ram.readSync(local(addressB), enableB)
+    engine.portA(b) := RegNext(a)
+    engine.portBData(b) := RegNext(bRead)
+  }
+
+  // The finished feature, or a frame's end.
+  val finished = engine.state === EngineState.FINISHED
+  output.valid := finished || dispatch.marker
+  output.frameEnd := !finished
+  output.end := dispatch.c.end
+  output.x := engine.corner.corner.x
+  output.y := engine.corner.corner.y
+  output.bin := engine.corner.bin
+  output.score := engine.corner.corner.score
+  output.keyframe := Mux(finished, engine.corner.keyframe, dispatch.c.end.keyframe)
+  output.descriptor := engine.collect.descriptor
+  when(finished && output.ready) {
+    engine.state := EngineState.IDLE
+  }
+  val engineDrop = engine.state === EngineState.ABANDONED
+  when(engineDrop) {
+    engine.state := EngineState.IDLE
+  }
+  io.features << output.s2mPipe().m2sPipe()
 
   val drops = Reg(UInt(f.counterWidth bits)) init 0
-  drops := drops + U(queueDrop).resize(f.counterWidth) + U(dispatch.refused).resize(f.counterWidth) +
-    U(collect.engineDrop).resize(f.counterWidth)
+  drops := drops + U(queueDrop).resize(f.counterWidth) + U(dispatch.refuse && !dispatch.c.frameEnd).resize(f.counterWidth) +
+    U(engineDrop).resize(f.counterWidth)
   io.dropped := drops
 }
 
 object DescriptorUnit {
-  /** Clocks a descriptor spends in the engine beyond its read issues: the front end's stages before the first
-    * issue, the read latency and the compare after the last (an upper bound). */
-  val pipelineClocks: Int = 16
+  /** Clocks from a corner's release (its row start), or from the engine handing its previous feature on, to the
+    * engine starting it, at most: the row test is registered and a row start in between costs one more. */
+  val dispatchClocks: Int = 4
 
-  /** Read issues of a bin's 256 tests: a pair (2k, 2k + 1) whose four points lie in four rows takes one clock,
-    * otherwise each test one clock, or two when its two points share a row (the engine's issue rule). */
-  def issueClocks(bin: Int, d: OrbDescriptorConfig): Int =
-    orb.model.OrbModel.rotatedTests(bin, d).grouped(2).map { case Seq(a, b) =>
-      val rows = Seq(a._2, a._4, b._2, b._4)
-      if (rows.distinct.size == 4) 1
-      else Seq(a, b).map(t => if (t._2 == t._4) 2 else 1).sum
-    }.sum
+  /** Clocks from a corner's start to its finished descriptor beyond its read issues: the front end before the first
+    * issue, and the reads, the comparison and the collection after the last. */
+  val engineLatency: Int = 20
 
-  private val maxCache = scala.collection.concurrent.TrieMap[OrbDescriptorConfig, Int]()
-  /** The most clocks one engine takes for a descriptor, over all bins. */
-  def maxClocks(d: OrbDescriptorConfig): Int =
-    maxCache.getOrElseUpdate(d, (0 until d.angleBins).map(issueClocks(_, d)).max + pipelineClocks)
+  /** Clocks the engine takes for a corner of bin `bin` whose patch's oldest row is in ring slot `base`. */
+  def clocks(bin: Int, base: Int, d: OrbDescriptorConfig): Int = engineLatency + DescriptorSchedule.issueClocks(bin, base, d)
+
+  /** The most clocks the engine takes for a descriptor, over all bins and ring positions. */
+  def maxClocks(d: OrbDescriptorConfig): Int = engineLatency + DescriptorSchedule.maxIssueClocks(d)
 }

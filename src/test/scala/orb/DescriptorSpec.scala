@@ -27,6 +27,9 @@ class DescriptorSpec extends AnyFunSuite {
         diffs.take(2).map { case ((a, b), i) => s"#$i model ${show(a)} RTL ${show(b)}" }.mkString("; ") + s"; dumped to $dir")
     }
     assert(rtl.featureDrops == 0, s"$name: ${rtl.featureDrops} selected corners got no descriptor")
+    val slow = rtl.engineRuns.filter(r => r.clocks != DescriptorUnit.clocks(r.bin, r.base, config.descriptor))
+    assert(rtl.engineRuns.size == got.size && slow.isEmpty, s"$name: the engine's clocks per descriptor differ from the schedule: " +
+      slow.take(3).map(r => s"$r, schedule ${DescriptorUnit.clocks(r.bin, r.base, config.descriptor)}").mkString("; "))
     assert(rtl.deselected == model.deselected, s"$name: deselected corners")
     println(f"[orb] descriptors $name%-34s ${if (p.segmentThreshold.isEmpty) "Harris maxima" else "segment test "} " +
       f"${img.width}x${img.height}: ${model.cornerCount}%6d corners, ${got.size}%5d features equal to the model, ${rtl.deselected}%6d deselected")

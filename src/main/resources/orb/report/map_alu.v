@@ -6,8 +6,19 @@ module _orb_alu (A, B, CI, BI, X, Y, CO);
   input [A_WIDTH-1:0] A; input [B_WIDTH-1:0] B; input CI, BI;
   output [Y_WIDTH-1:0] X, Y, CO;
   wire [Y_WIDTH-1:0] AA, BB;
-  \$pos #(.A_SIGNED(A_SIGNED), .A_WIDTH(A_WIDTH), .Y_WIDTH(Y_WIDTH)) ea (.A(A), .Y(AA));
-  \$pos #(.A_SIGNED(B_SIGNED), .A_WIDTH(B_WIDTH), .Y_WIDTH(Y_WIDTH)) eb (.A(B), .Y(BB));
+  // (a negation -x is 0 - x with an empty A)
+  generate
+    if (A_WIDTH == 0) begin: a_none
+      assign AA = 0;
+    end else begin: a_ext
+      \$pos #(.A_SIGNED(A_SIGNED), .A_WIDTH(A_WIDTH), .Y_WIDTH(Y_WIDTH)) ea (.A(A), .Y(AA));
+    end
+    if (B_WIDTH == 0) begin: b_none
+      assign BB = 0;
+    end else begin: b_ext
+      \$pos #(.A_SIGNED(B_SIGNED), .A_WIDTH(B_WIDTH), .Y_WIDTH(Y_WIDTH)) eb (.A(B), .Y(BB));
+    end
+  endgenerate
   wire [Y_WIDTH:0] C;
   assign C[0] = CI;
   // One logic element per bit in arithmetic mode (a Cyclone II carry chain).

@@ -4,9 +4,10 @@
 `les GENERIC.json`: per module of the generic (Cyclone-II-like) netlist, the flip-flops that take a logic element
 of their own: a flip-flop shares one only with the LUT or carry-chain bit that feeds its D input, and each LUT or
 carry bit with one flip-flop; a flip-flop fed by another flip-flop, a port or a second flip-flop of the same LUT
-takes a logic element of its own. Two kinds live in the hard blocks instead, as Quartus packs them on Cyclone II:
-the only flip-flop behind a RAM read bit (the M4K's output register) and a flip-flop that feeds nothing but
-multiplier inputs (the multiplier's input register). Prints `module count` lines.
+takes a logic element of its own. Three kinds live in the hard blocks instead, as Quartus packs them on Cyclone II:
+the only flip-flop behind a RAM read bit (the M4K's output register), a flip-flop that feeds nothing but
+multiplier inputs (the multiplier's input register) and the only flip-flop behind a product bit (its output
+register). Prints `module count` lines.
 
 `pack IN.json OUT.json TOP`: moves plain registers into the RAM and multiplier blocks of a synth_ecp5 netlist.
 
@@ -18,8 +19,10 @@ block's slow unregistered output to the next logic. This pass does what Quartus 
   and the same clock enable, the flip-flops become the port's output register (REGMODE_X = OUTREG, OCEX = their
   enable) and are removed;
 - multiplier (MULT18X18D): an input (A or B) whose every non-constant bit comes from a flip-flop with no reset and
-  no enable that feeds only multiplier inputs becomes an input register (the flip-flop is removed once nothing else
-  reads it); the product is registered likewise when every used P bit feeds exactly one such flip-flop.
+  one common enable that feeds only multiplier inputs becomes an input register (the flip-flop is removed once
+  nothing else reads it); the product is registered likewise when every used P bit feeds exactly one such
+  flip-flop; each distinct enable takes one of the block's CE0..CE3 pins (Cyclone II's multiplier registers have
+  clock enables too).
 
 Prints one line: counts of what was packed.
 
@@ -139,12 +142,23 @@ def pack(src, dst, top):
         c = cells[name]
         k, p = c["connections"], c["parameters"]
         clock = None
-        # inputs
+        enables = []  # clock-enable nets, in the order of the block's CE0..CE3 pins
+
+        def ce_pin(enable):
+            """the block's CE pin for `enable` (a net bit, or '1'), or None when all four are taken"""
+            if enable not in enables:
+                if len(enables) == 4:
+                    return None
+                enables.append(enable)
+            return f"CE{enables.index(enable)}"
+
+        # inputs: every non-constant bit from a flip-flop with no reset that feeds only multiplier inputs, one clock
+        # and one enable for the input
         for x in ("A", "B"):
             if p.get(f"REG_INPUT{x}_CLK", "NONE") != "NONE":
                 continue
             pins = [f"{x}{i}" for i in range(18)]
-            ffs, ok = {}, True
+            ffs, ok, enable = {}, True, None
             for pin in pins:
                 b = k.get(pin, ["0"])[0]
                 if not isinstance(b, int):
@@ -153,19 +167,22 @@ def pack(src, dst, top):
                 if d is None or d[1] != "Q":
                     ok = False
                     break
-                info = plain_ff(d[0], allow_enable=False)
-                if info is None or (clock is not None and info[0] != clock):
+                info = plain_ff(d[0], allow_enable=True)
+                if info is None or (clock is not None and info[0] != clock) or (enable is not None and info[1] != enable):
                     ok = False
                     break
                 if any(cells[s[0]]["type"] != "MULT18X18D" if s[0] in cells else True for s in sinks[b]):
                     ok = False
                     break
-                clock = info[0]
+                clock, enable = info
                 ffs[pin] = d[0]
             if not ok or not ffs:
                 continue
+            ce = ce_pin(enable)
+            if ce is None:
+                continue
             p[f"REG_INPUT{x}_CLK"] = "CLK0"
-            p[f"REG_INPUT{x}_CE"] = "CE0"
+            p[f"REG_INPUT{x}_CE"] = ce
             p[f"REG_INPUT{x}_RST"] = "RST0"
             for pin, ff in ffs.items():
                 k[pin] = cells[ff]["connections"]["DI"]
@@ -175,11 +192,12 @@ def pack(src, dst, top):
         if p.get("REG_OUTPUT_CLK", "NONE") == "NONE":
             used = [(f"P{i}", k.get(f"P{i}", ["x"])[0]) for i in range(36)]
             used = [(pin, b) for pin, b in used if isinstance(b, int) and sinks.get(b)]
-            behind = registers_behind(used, clock, allow_enable=False) if used else None
-            if behind is not None:
+            behind = registers_behind(used, clock, allow_enable=True) if used else None
+            ce = ce_pin(behind[1]) if behind is not None else None
+            if ce is not None:
                 clock, _, ffs = behind
                 p["REG_OUTPUT_CLK"] = "CLK0"
-                p["REG_OUTPUT_CE"] = "CE0"
+                p["REG_OUTPUT_CE"] = ce
                 p["REG_OUTPUT_RST"] = "RST0"
                 for pin, ff in ffs:
                     k[pin] = cells[ff]["connections"]["Q"]
@@ -188,9 +206,18 @@ def pack(src, dst, top):
                 packed["mult_outputs"] += 1
         if clock is not None:
             k["CLK0"] = [clock]
-            k["CE0"] = ["1"]
-            k["RST0"] = ["0"]
-            c.setdefault("port_directions", {}).update({"CLK0": "input", "CE0": "input", "RST0": "input"})
+            for i, enable in enumerate(enables):
+                k[f"CE{i}"] = [enable]
+            c.setdefault("port_directions", {}).update({"CLK0": "input"})
+            c["port_directions"].update({f"CE{i}": "input" for i in range(len(enables))})
+    # Constant control pins of a multiplier are configuration on Cyclone II (and tie-offs inside the ECP5 block), not
+    # signals: nextpnr would route every one from a single constant LUT into the DSP rows.
+    for name in mults:
+        k = cells[name]["connections"]
+        for pin in [p for p in k if p.startswith(("SIGNED", "SOURCE", "RST", "CE", "CLK"))]:
+            if k[pin][0] in ("0", "1", "x"):
+                del k[pin]
+                packed["mult_constant_pins"] = packed.get("mult_constant_pins", 0) + 1
     # input flip-flops that nothing but registered multiplier inputs read any more
     sinks = bit_sinks()
     for ff in absorbed_inputs:
@@ -282,6 +309,11 @@ def les(generic_file):
         for cname, c in module["cells"].items():
             if c["type"].startswith("$mem"):
                 ram_bits.update(b for b in c["connections"].get("RD_DATA", []) if isinstance(b, int))
+        mul_bits = set()
+        for cname, c in module["cells"].items():
+            if c["type"].startswith("ORB_MUL"):
+                mul_bits.update(b for port, bits in c["connections"].items()
+                                if c.get("port_directions", {}).get(port) == "output" for b in bits if isinstance(b, int))
         claimed, alone = set(), 0
         for cname, c in module["cells"].items():
             if c["type"].startswith("$_DFF") or c["type"].startswith("$_SDFF") or c["type"].startswith("$_DLATCH"):
@@ -293,6 +325,8 @@ def les(generic_file):
                     continue  # the M4K's output register
                 if q_sinks and all(module["cells"].get(s, {}).get("type", "").startswith("ORB_MUL") for s, _ in q_sinks):
                     continue  # the multiplier's input register
+                if isinstance(d, int) and d in mul_bits and len(sinks.get(d, [])) == 1:
+                    continue  # the multiplier's output register
                 if host is not None and host not in claimed:
                     claimed.add(host)
                 else:

@@ -68,10 +68,7 @@ object OrbModel {
   def binDegrees(bin: Int, cfg: OrbDescriptorConfig): Double = bin * cfg.binDegrees
 
   /** cos and sin of a bin's angle, scaled 2^rotationFracBits. */
-  def cosSin(bin: Int, cfg: OrbDescriptorConfig): (Long, Long) = {
-    val t = math.toRadians(binDegrees(bin, cfg)); val s = (1L << cfg.rotationFracBits).toDouble
-    (math.round(math.cos(t) * s), math.round(math.sin(t) * s))
-  }
+  def cosSin(bin: Int, cfg: OrbDescriptorConfig): (Long, Long) = cfg.cosSin(bin)
 
   /** v / 2^f rounded half to even, as OpenCV's cvRound. */
   def roundHalfEven(v: Long, f: Int): Int = {

@@ -22,6 +22,10 @@ object Blanking {
   val random: Blanking = Blanking(pixelGapProb = 0.2, maxPixelGap = 3, lineGap = (0, 20), frameGap = (0, 50))
 }
 
+/** One descriptor of the engine: its bin, the ring slot of its patch's oldest row, clocks from its start to its
+  * finished descriptor (as `DescriptorUnit.clocks` says). */
+final case class EngineRun(bin: Int, base: Int, clocks: Int)
+
 /** Output events of the core in the order it emits them (a corner before a frame end of the same clock). */
 sealed trait CoreEvent
 final case class CornerEvent(c: Corner) extends CoreEvent
@@ -29,7 +33,7 @@ final case class FrameEndEvent(e: FrameEnd) extends CoreEvent
 
 final case class RtlResult(events: Seq[CoreEvent], counters: FrameCounters, cornerCount: Long, cycles: Long,
                            featureStream: Seq[Either[FrameEnd, Feature]], featureCount: Long, featureDrops: Long,
-                           deselected: Long) {
+                           deselected: Long, engineRuns: Seq[EngineRun] = Nil) {
   def features: Seq[Feature] = featureStream.collect { case Right(f) => f }
   def corners: Seq[Corner] = events.collect { case CornerEvent(c) => c }
   def frameEnds: Seq[FrameEnd] = events.collect { case FrameEndEvent(e) => e }
@@ -53,7 +57,16 @@ object CoreSim {
   }
 
   def compile(cfg: OrbConfig, workspace: String = "simWorkspace", wave: Boolean = false): SimCompiled[OrbCore] =
-    simConfig(workspace, wave).compile(new OrbCore(cfg))
+    simConfig(workspace, wave).compile {
+      val core = new OrbCore(cfg)
+      // the descriptor engine's start and finish, for `EngineRun`s
+      val engine = core.descriptors.engine
+      core.descriptors.dispatch.start.simPublic()
+      engine.state.simPublic()
+      engine.base.simPublic()
+      engine.corner.bin.simPublic()
+      core
+    }
 
   /** A pixel port at rest (valid low, every field defined): call before the first clock edge. */
   def idlePixels(pixels: Flow[PixelBeat]): Unit = {
@@ -88,9 +101,17 @@ object CoreSim {
     def features: Seq[Feature] = featureStream.collect { case Right(f) => f }.toSeq
     /** the clock (counted from the monitor's start) of each corner event */
     val cornerClocks = ArrayBuffer[Long]()
+    val engineRuns = ArrayBuffer[EngineRun]()
+    private val engine = dut.descriptors.engine
+    private var started = -1L
     var cycles = 0L
     dut.clockDomain.onSamplings {
       cycles += 1
+      if (started >= 0 && engine.state.toEnum == EngineState.FINISHED) {
+        engineRuns += EngineRun(engine.corner.bin.toInt, engine.base.toInt, (cycles - started).toInt)
+        started = -1
+      }
+      if (dut.descriptors.dispatch.start.toBoolean) started = cycles
       if (dut.io.corners.valid.toBoolean) {
         events += CornerEvent(Corner(dut.io.corners.x.toInt, dut.io.corners.y.toInt, dut.io.corners.score.toLong))
         cornerClocks += cycles
@@ -151,7 +172,7 @@ object CoreSim {
   /** What the monitor saw, with the core's counters now. */
   def result(dut: OrbCore, monitor: Monitor): RtlResult =
     RtlResult(monitor.events.toSeq, counters(dut), dut.io.status.corners.toLong, monitor.cycles, monitor.featureStream.toSeq,
-      dut.io.status.features.toLong, dut.io.status.featureDrops.toLong, dut.io.status.deselected.toLong)
+      dut.io.status.features.toLong, dut.io.status.featureDrops.toLong, dut.io.status.deselected.toLong, monitor.engineRuns.toSeq)
 
   /** One complete run from reset: returns what the core emitted and its counters. */
   def run(dut: OrbCore, beats: Seq[Beat], p: CornerParams, blanking: Blanking, seed: Long): RtlResult = {

@@ -1,0 +1,147 @@
+package orb
+
+import spinal.core._
+import spinal.lib._
+import orb.model.DescriptorSchedule
+import orb.model.DescriptorSchedule.{lanesPerPort, pointsPerGroup, testsPerGroup}
+
+/** A point of a group of tests as the planner sees it: its bank, and whether it must read through port B. */
+case class PlannedPoint(bankWidth: Int) extends Bundle {
+  val bank = UInt(bankWidth bits)
+  val portB = Bool()
+}
+
+/** The schedule of a group: per point the clock within the group and the read lane, and the group's clocks. */
+case class GroupPlan() extends Bundle {
+  val issue = Vec(UInt(GroupPlanner.issueWidth bits), pointsPerGroup)
+  val lane = Vec(UInt(GroupPlanner.laneWidth bits), pointsPerGroup)
+  val issues = UInt(GroupPlanner.issuesWidth bits)
+}
+
+/** `DescriptorSchedule.plan` in hardware: the read schedule of a group of 4 tests from its points' banks, in
+  * `GroupPlanner.latency` registered steps that all advance with `advance` (the descriptor engine's front end holds
+  * while a group takes more than one clock). It depends on nothing read, so it runs ahead of the reads.
+  *
+  * Steps: (1) which points share a bank; (2) per candidate set (the group, each half, each test) the port rule's
+  * flags: forced to port A, alone in its bank, and whether the set can go in one clock at all; (3) counts: which
+  * points go through port A, and whether the whole group fits; (4) ranks within each port, the mode (group, half,
+  * test or point at a time) and each point's clock. */
+class GroupPlanner(bankWidth: Int) extends Component {
+  import GroupPlanner._
+  val io = new Bundle {
+    val advance = in Bool ()
+    val points = in Vec (PlannedPoint(bankWidth), pointsPerGroup)
+    val plan = out(GroupPlan())
+  }
+  def step[T <: Data](v: T): T = RegNextWhen(v, io.advance)
+
+  val all: Seq[Int] = 0 until pointsPerGroup
+  val halves: Seq[Seq[Int]] = Seq(0 until 4, 4 until 8)
+  val tests: Seq[Seq[Int]] = (0 until testsPerGroup).map(t => Seq(2 * t, 2 * t + 1))
+  val sets: Seq[Seq[Int]] = all +: (halves ++ tests)
+
+  // (1) pairs in one bank
+  val shared = new Area {
+    val same = step(Vec(for (i <- all; j <- all if i < j) yield io.points(i).bank === io.points(j).bank))
+    val portB = step(Vec(io.points.map(_.portB)))
+    def apply(i: Int, j: Int): Bool = {
+      val (a, b) = (i min j, i max j)
+      same(all.filter(_ < a).map(k => pointsPerGroup - 1 - k).sum + (b - a - 1))
+    }
+  }
+
+  // (2) the port rule's flags, per set (DescriptorSchedule.lanes)
+  case class SetFlags(n: Int) extends Bundle {
+    val forcedA, free = Bits(n bits)
+    val fits = Bool()
+  }
+  val flags = new Area {
+    def of(set: Seq[Int]): SetFlags = {
+      val o = SetFlags(set.size)
+      for ((i, k) <- set.zipWithIndex) {
+        val others = set.filter(_ != i)
+        val partner = others.map(j => shared(i, j)).orR
+        val partnerB = others.map(j => shared(i, j) && shared.portB(j)).orR
+        val partnerBefore = others.filter(_ < i).map(j => shared(i, j)).foldLeft(False)(_ || _)
+        o.forcedA(k) := !shared.portB(i) && partner && (partnerB || !partnerBefore)
+        o.free(k) := !shared.portB(i) && !partner
+      }
+      val triples = for (i <- set; j <- set; k <- set if i < j && j < k) yield shared(i, j) && shared(j, k)
+      val portBTwice = for (i <- set; j <- set if i < j) yield shared(i, j) && shared.portB(i) && shared.portB(j)
+      o.fits := !(triples ++ portBTwice).foldLeft(False)(_ || _)
+      o
+    }
+    val bySet = sets.map(set => step(of(set)))
+  }
+
+  // (3) port A or B per point of each set; whether the whole group fits (at most 4 per port)
+  case class SetPorts(n: Int) extends Bundle {
+    val onA = Bits(n bits)
+    val fits = Bool()
+  }
+  val ports = new Area {
+    def of(s: SetFlags, n: Int): SetPorts = {
+      val o = SetPorts(n)
+      if (n <= lanesPerPort) {
+        // every point alone in its bank fits port A
+        o.onA := s.forcedA | s.free
+        o.fits := s.fits
+      } else {
+        val forced = CountOne(s.forcedA)
+        val free = CountOne(s.free)
+        for (k <- 0 until n) {
+          val freeBefore = if (k == 0) U(0) else CountOne(s.free(k - 1 downto 0))
+          o.onA(k) := s.forcedA(k) || (s.free(k) && (freeBefore.resize(4 bits) + forced.resize(4 bits) < lanesPerPort))
+        }
+        o.fits := s.fits && forced <= lanesPerPort && (forced.resize(5 bits) + free.resize(5 bits)) >= lanesPerPort
+      }
+      o
+    }
+    val bySet = sets.zip(flags.bySet).map { case (set, s) => step(of(s, set.size)) }
+  }
+
+  // (4) lanes, the mode and each point's clock
+  val schedule = new Area {
+    def lanesOf(p: SetPorts, n: Int): Vec[UInt] = Vec((0 until n).map { k =>
+      val before = if (k == 0) B(0, 1 bits) else p.onA(k - 1 downto 0)
+      val rankA = CountOne(before).resize(laneWidth bits)
+      val rankB = (U(k, laneWidth bits) - rankA).resize(laneWidth bits)
+      Mux(p.onA(k), rankA, U(lanesPerPort, laneWidth bits) + rankB)
+    })
+    val full = ports.bySet(0)
+    val half = (0 until 2).map(h => ports.bySet(1 + h))
+    val test = (0 until testsPerGroup).map(t => ports.bySet(3 + t))
+    val fullLanes = lanesOf(full, pointsPerGroup)
+    val halfLanes = half.map(lanesOf(_, 4))
+    val testLanes = test.map(lanesOf(_, 2))
+    // clocks per test (a test that does not fit goes point by point), per half
+    val testClocks = test.map(t => Mux(t.fits, U(1, issueWidth bits), U(2, issueWidth bits)))
+    val halfClocks = (0 until 2).map(h => Mux(half(h).fits, U(1, issueWidth bits), testClocks(2 * h) + testClocks(2 * h + 1)))
+    val plan = GroupPlan()
+    for (i <- all) {
+      val h = i / 4
+      val t = i / 2
+      val firstOfHalf = t % 2 == 0
+      val halfStart = if (h == 0) U(0, issueWidth bits) else halfClocks(0)
+      val testStart = if (firstOfHalf) U(0, issueWidth bits) else testClocks(t - 1)
+      val second = if (i % 2 == 1) Mux(test(t).fits, U(0, issueWidth bits), U(1, issueWidth bits)) else U(0, issueWidth bits)
+      val inHalf = Mux(half(h).fits, U(0, issueWidth bits), testStart + second)
+      plan.issue(i) := Mux(full.fits, U(0, issueWidth bits), halfStart + inHalf)
+      // a point read alone must read through port B (two such points of a test in one bank): lane 4
+      val alone = U(lanesPerPort, laneWidth bits)
+      plan.lane(i) := Mux(full.fits, fullLanes(i),
+        Mux(half(h).fits, halfLanes(h)(i % 4), Mux(test(t).fits, testLanes(t)(i % 2), alone)))
+    }
+    plan.issues := Mux(full.fits, U(1, issuesWidth bits), (halfClocks(0) +^ halfClocks(1)).resize(issuesWidth))
+    io.plan := step(plan)
+  }
+}
+
+object GroupPlanner {
+  /** registered steps from the points to the plan */
+  val latency: Int = 4
+  val issueWidth: Int = log2Up(pointsPerGroup)
+  val issuesWidth: Int = log2Up(pointsPerGroup + 1)
+  val laneWidth: Int = log2Up(2 * lanesPerPort)
+  require(DescriptorSchedule.pointsPerGroup == 2 * lanesPerPort, "one lane per point of a group")
+}
