@@ -95,10 +95,12 @@ class HarrisDetector(f: FrameConfig, h: HarrisConfig, columnRows: Int, stages: H
     new Area {
       val win = lastValid(Vec(compareNode(COLUMN).slice(1, 8)), 8, compareNode.isValid) // win(j)(i): column x - j, row index i + 1
       def px(dx: Int, dy: Int): UInt = win(4 - dx)(3 - dy) // dy > 0 is down, a newer row
-      val centre = px(0, 0)
+      // centre + t and centre - t, registered a beat ahead from the pixel that becomes the centre (the window
+      // advances with valid pixels), so that no adder lies before the 32 comparisons
       val t = control.segmentThreshold
-      val brighterThan = centre +^ t
-      val darkerThan = centre.intoSInt.resize(10) - t.intoSInt.resize(10)
+      val upcoming = px(1, 0)
+      val brighterThan = RegNextWhen(upcoming +^ t, compareNode.isValid)
+      val darkerThan = RegNextWhen(upcoming.intoSInt.resize(10) - t.intoSInt.resize(10), compareNode.isValid)
       val ring = SegmentTestConfig.circle.map { case (dx, dy) => px(dx, dy) }
       val BRIGHTER = compareNode.insert(Vec(ring.map(_ > brighterThan)).asBits)
       val DARKER = compareNode.insert(Vec(ring.map(_.intoSInt.resize(10) < darkerThan)).asBits)
