@@ -135,8 +135,9 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
       for (list <- banks(bank); e <- list) e.valid := False
     }
     // The winner that comes first in raster order (row offset, then cell, then column), in registered steps
-    // within the pace: each cell's first at step 0, the band's first at step 1; at step 2 it leaves and its entry
-    // is emptied, in time for the next winner's step 0 (step 0 is the clock after the copy).
+    // within the pace, one comparison each: pairs of a cell's entries, the cell's first, pairs of cells, the band's
+    // first; at the next step it leaves and its entry is emptied, in time for the next winner's first step (the
+    // first step is the clock after the copy).
     case class Candidate() extends Bundle {
       val valid = Bool()
       val key = UInt(b.bandShift + log2Up(cells max 2) + b.cellShift bits)
@@ -145,9 +146,11 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
       val score = UInt(h.scoreWidth bits)
     }
     def earlier(l: Candidate, r: Candidate): Candidate = Mux(l.valid && (!r.valid || l.key <= r.key), l, r)
-    val cellFirsts = Reg(Vec.fill(cells)(Candidate()))
-    for ((list, cell) <- lists.zipWithIndex) {
-      val candidates = list.zipWithIndex.map { case (e, i) =>
+    /** the first of `cs`, a register after every level of comparisons */
+    def firstOf(cs: Seq[Candidate]): Candidate =
+      if (cs.size == 1) cs.head else firstOf(cs.grouped(2).map(p => RegNext(p.reduce(earlier))).toSeq)
+    val candidates = lists.zipWithIndex.map { case (list, cell) =>
+      list.zipWithIndex.map { case (e, i) =>
         val cand = Candidate()
         cand.valid := e.valid
         cand.key := e.yOffset @@ U(cell, log2Up(cells max 2) bits) @@ e.xOffset
@@ -156,16 +159,19 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
         cand.score := e.score
         cand
       }
-      cellFirsts(cell) := candidates.reduceBalancedTree(earlier)
     }
-    val first = RegNext(cellFirsts.reduceBalancedTree(earlier))
+    val first = firstOf(candidates.map(c => firstOf(c.toSeq)).toSeq)
+    val steps = log2Up(k) + log2Up(cells)
+    require(steps + 1 <= FeatureBudget.winnerClocks, "a winner leaves in its pace")
     val out = Flow(HarrisCorner(f, h))
-    val now = busy && pace === 2 && !copying
+    val now = busy && pace === steps && !copying
     out.valid := now && first.valid
     out.x := ((first.key.resize(log2Up(cells max 2) + b.cellShift)).resize(f.coordWidth))
     out.y := bandY + first.key(first.key.getWidth - 1 downto first.key.getWidth - b.bandShift).resize(f.coordWidth)
     out.score := first.score
-    when(busy) { pace := pace + 1 }
+    when(busy) {
+      pace := Mux(pace === FeatureBudget.winnerClocks - 1, U(0, pace.getWidth bits), pace + 1)
+    }
     when(trigger || copying) { pace := 0 }
     when(now) {
       when(first.valid) {
@@ -322,6 +328,7 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
 }
 
 object FeatureBudget {
-  /** Clocks between two winners leaving a bank: the histogram's read, its registered data, the write back. */
-  val winnerClocks: Int = 4
+  /** Clocks between two winners leaving a bank: the registered steps that choose one, and the histogram's read, its
+    * registered data, the write back. */
+  val winnerClocks: Int = 5
 }
