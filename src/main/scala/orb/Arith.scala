@@ -12,6 +12,54 @@ object Arith {
     if (terms.isEmpty) U(0, width bits) else terms.reduceBalancedTree(_ + _)
   }
 
+  /** v * k for a constant k >= 0 and a signed v, as shifted copies added and subtracted (k = 2^a - 2^b - ... where
+    * that takes fewer terms); `width` bits out. */
+  def constMulSigned(v: SInt, k: Int, width: Int): SInt = {
+    require(k >= 0)
+    // canonical signed digits: no two adjacent non-zero digits
+    val digits = scala.collection.mutable.ArrayBuffer[(Int, Int)]()
+    var rest = k
+    var bit = 0
+    while (rest != 0) {
+      if ((rest & 1) == 1) {
+        val d = 2 - (rest & 3) // 1 when rest = ...01, -1 when rest = ...11
+        digits += ((bit, d))
+        rest -= d
+      }
+      rest >>= 1
+      bit += 1
+    }
+    val terms = digits.map { case (b, d) => (v.resize(width) |<< b, d) }
+    if (terms.isEmpty) S(0, width bits)
+    else {
+      val (pos, neg) = terms.partition(_._2 > 0)
+      val plus = if (pos.isEmpty) S(0, width bits) else pos.map(_._1).reduceBalancedTree(_ + _)
+      if (neg.isEmpty) plus else plus - neg.map(_._1).reduceBalancedTree(_ + _)
+    }
+  }
+
+  /** Inclusive prefix sums e(0) + ... + e(k) for each k of `wanted` (Kogge-Stone, only the sums those need), `width`
+    * bits, with a register after every `levelsPerStage` adder levels and after the last; returns the sums and the
+    * clocks they take. */
+  def prefixSums(e: collection.IndexedSeq[SInt], wanted: Seq[Int], width: Int, levelsPerStage: Int): (Map[Int, SInt], Int) = {
+    val levels = log2Up(e.size)
+    val need = Array.fill(levels + 1)(Set[Int]())
+    need(levels) = wanted.toSet
+    for (j <- levels - 1 to 0 by -1) need(j) = need(j + 1) ++ need(j + 1).filter(_ >= (1 << j)).map(_ - (1 << j))
+    var current: Map[Int, SInt] = need(0).map(k => k -> e(k).resize(width)).toMap
+    var clocks = 0
+    for (j <- 0 until levels) {
+      val span = 1 << j
+      var next = need(j + 1).map(k => k -> (if (k >= span) current(k) + current(k - span) else current(k))).toMap
+      if ((j + 1) % levelsPerStage == 0 || j == levels - 1) {
+        next = next.map { case (k, v) => k -> RegNext(v) }
+        clocks += 1
+      }
+      current = next
+    }
+    (current, clocks)
+  }
+
   /** The last `n` values of `v` (element 0 = `v` itself), advancing only on valid pixels: the horizontal extent of
     * a window, whatever the blanking. */
   def lastValid[T <: Data](v: T, n: Int, valid: Bool): Vec[T] = History[T](v, n, valid, null.asInstanceOf[T])

@@ -48,25 +48,33 @@ class OrientationUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, c
   queue.io.push.payload := io.corners.payload
   val queueDrop = io.corners.valid && !queue.io.push.ready
 
-  // Shared per-column sums around the centre row (column index R = R rows above the newest).
+  // Shared per-column sums around the centre row (column index R = R rows above the newest), for the 10 distinct disc
+  // heights dh: T(dh) = sum over |v| <= dh of I(v), TV(dh) = sum over |v| <= dh of v I(v). Both are prefix sums over
+  // v of I(v) + I(-v) and v (I(v) - I(-v)), formed in registered levels (`Arith.prefixSums`) and shared by every
+  // corner of the row; the beat travels beside them.
   val sums = new Area {
     val col = io.columns.column
     def at(v: Int): UInt = col(R - v) // the pixel v rows below the centre
     val heights = (0 to R).map(vmax).distinct.sorted
-    // T(dh) = sum over |v| <= dh of I(v); TV(dh) = sum over |v| <= dh of v I(v)
-    val t = heights.map(dh => (-dh to dh).map(v => at(v).resize(sumWidth)).reduceBalancedTree(_ + _))
-    val tv = heights.map(dh => (1 to dh).map(v => constMul(at(v), v, sumWidth).intoSInt - constMul(at(-v), v, sumWidth).intoSInt)
-      .reduceBalancedTree(_ + _))
-    // Registered: the slots use them one clock later, with the registered beat.
-    val T = RegNext(Vec(t))
-    val TV = RegNext(Vec(tv))
-    val valid = RegNext(io.columns.valid) init False
-    val x = RegNext(io.columns.pixel.x)
-    val y = RegNext(io.columns.pixel.y)
-    val active = RegNext(io.columns.pixel.active)
-    val keyframe = RegNext(io.columns.pixel.keyframe)
-    val ends = RegNext(io.columns.pixel.ends)
-    val end = RegNext(io.columns.pixel.end)
+    val pairs = RegNext(Vec((1 to R).map(v => at(v).resize(sumWidth) + at(-v).resize(sumWidth))))
+    val centre = RegNext(at(0).resize(sumWidth))
+    val differences = RegNext(Vec((1 to R).map(v => at(v).intoSInt.resize(sumWidth) - at(-v).intoSInt.resize(sumWidth))))
+    // v (I(v) - I(-v)) by shifts and adds
+    val weighted = RegNext(Vec((1 to R).map(v => constMulSigned(differences(v - 1), v, sumWidth))))
+    val (t, tLatency) = prefixSums((centre +: pairs).map(_.asSInt), heights, sumWidth, 2)
+    val (tv, tvLatency) = prefixSums(weighted, heights.map(_ - 1), sumWidth, 2)
+    /** clocks from the column to the sums */
+    val latency = 2 + tvLatency
+    require(1 + tLatency <= latency)
+    val T = Vec(heights.map(dh => Delay(t(dh).asUInt, latency - 1 - tLatency)))
+    val TV = Vec(heights.map(dh => tv(dh - 1)))
+    val valid = Delay(io.columns.valid, latency, init = False)
+    val x = Delay(io.columns.pixel.x, latency)
+    val y = Delay(io.columns.pixel.y, latency)
+    val active = Delay(io.columns.pixel.active, latency)
+    val keyframe = Delay(io.columns.pixel.keyframe, latency)
+    val ends = Delay(io.columns.pixel.ends, latency)
+    val end = Delay(io.columns.pixel.end, latency)
     val frameStart = valid && x === 0 && y === 0
     // Rows and frames counted since reset, the same way the descriptor unit counts them on its stream.
     val rowCount = Reg(UInt(rowCountWidth bits)) init 0
