@@ -94,7 +94,8 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
 
   val stored = Reg(UInt(countWidth bits)) init 0
   val storedNow = Mux(frame.first && isKey, U(0, countWidth bits), stored)
-  val groups = groupOf(stored +^ (P - 1), groupWidth + 1)
+  // registered: the store only changes while a keyframe loads, long before a scan counts its groups
+  val groups = RegNext(groupOf(stored +^ (P - 1), groupWidth + 1)) init 0
 
   val lanes = for (l <- 0 until P) yield new Area {
     val store = Mem(Entry(), m.groups)
@@ -153,17 +154,18 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
   }
 
   val output = StreamFifo(CorrespondenceBeat(f), m.outputDepth)
-  // Waiting for the consumer, with a limit.
+  // Waiting for the consumer, with a limit. The room is judged from the last clock's free places (at most one push
+  // a clock takes one away), so no decision waits for the FIFO's pointers.
   val paced = new Area {
-    val full = !output.io.push.ready
-    /** fewer than two free places: the sweep, one push in flight, has to wait */
-    val tight = output.io.availability < 2
+    val available = RegNext(output.io.availability) init m.outputDepth
+    /** fewer than three free places now: the sweep, two pushes in flight, has to wait */
+    val tight = available < 4
     val waited = Reg(UInt(log2Up(m.outputTimeout + 1) bits)) init 0
     val giveUp = waited === m.outputTimeout
     when(!tight) { waited := 0 } elsewhen (!giveUp) { waited := waited + 1 }
     /** a scan's correspondence (pushed when the scan ends, with nothing else pushed meanwhile) will fit */
-    val itemRoom = !full || giveUp
-    /** the entry read now is pushed next clock: room for it after this clock's push */
+    val itemRoom = available >= 2 || giveUp
+    /** the entry read now is pushed two clocks later: room for it after the pushes in flight */
     val sweepRoom = !tight || giveUp
   }
 
@@ -188,23 +190,20 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
     when(item.fire && item.frameEnd && frame.keyNow) { busy := True; group := 0 }
   }
 
-  /** Clocks from a group's read to its merged result (RAM read, popcount stages, compare, merge). */
   val popStages = MatcherConfig.popcountStages(m)
-  val latency = 1 + popStages + 1 + log2Up(P) + 1 + 1
 
-  // The read side of every lane: store and cross state, by the scan or the sweep.
+  // The read side of every lane: store and cross state, by the scan, the sweep or the rescan, every clock (a read
+  // nobody asked for is ignored), through the RAMs' output registers: the data come two clocks after the address.
   val reads = for ((lane, l) <- lanes.zipWithIndex) yield new Area {
-    val sweepHere = sweep.reading && (if (P == 1) True else sweep.lane === l)
     val addr = Mux(rescan.busy, rescan.group.resize(groupWidth), Mux(sweep.busy, sweep.addr, scan.readAddr))
-    val enable = scan.issuing || sweepHere || rescan.issuing
-    val entry = lane.store.readSync(addr, enable)
-    val cross = lane.cross.readSync(addr, enable)
+    val entry = RegNext(lane.store.readSync(addr))
+    val cross = RegNext(lane.cross.readSync(addr))
   }
 
   // The rescan's data path: the scores read through the cross port, the lowest (first on ties) of them all.
   val rescanMin = new Area {
     // Registered three times: the RAM data, the group's lowest, the running lowest; no path holds two of them.
-    val scores = reads.map(r => RegNext(r.cross.asBits.resize(h.scoreWidth).asUInt))
+    val scores = reads.map(r => r.cross.asBits.resize(h.scoreWidth).asUInt)
     val read = Delay(rescan.issuing, 2, init = False)
     val base = Delay(rescan.group.resize(countWidth) |<< log2Up(P), 2)
     val first = Delay(rescan.issuing && rescan.group === 0, 2, init = False)
@@ -223,8 +222,8 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
 
   // The compare pipeline, stage by stage, side-band data delayed alongside.
   val compare = new Area {
-    val valid0 = RegNext(scan.issuing) init False
-    val group0 = RegNext(scan.readAddr)
+    val valid0 = Delay(scan.issuing, 2, init = False)
+    val group0 = Delay(scan.readAddr, 2)
     val valid = Delay(valid0, popStages, init = False)
     val group = Delay(group0, popStages)
     case class Lane() extends Bundle {
@@ -295,11 +294,11 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
     markValue.liveX := scan.live.x; markValue.liveY := scan.live.y
   }
 
-  // Sweep results, one clock after the read.
+  // Sweep results, two clocks after the read.
   val swept = new Area {
-    val valid = RegNext(sweep.reading) init False
-    val lane = RegNext(sweep.lane)
-    val addr = RegNext(sweep.addr)
+    val valid = Delay(sweep.reading, 2, init = False)
+    val lane = Delay(sweep.lane, 2)
+    val addr = Delay(sweep.addr, 2)
     val cross = pick(reads.map(_.cross), lane)
     val entry = pick(reads.map(_.entry), lane)
     val emit = valid && cross.mutual && frame.params.crossCheck
