@@ -32,10 +32,10 @@ object EngineState extends SpinalEnum {
   * its bank. A corner's 37 rows are complete when row cy + 22 starts; from then on it has `slackRows` row starts
   * before its oldest row is overwritten, and is dropped (counted) if it is not done by then.
   *
-  * One engine with 8 read lanes, 4 on the banks' A ports and 4 on their B ports. Its front end takes the 256 tests
-  * in 64 groups of 4: the pattern, the rotation with the bin's cos/sin (x' = round(x cos - y sin), y' = round(x sin
+  * One engine with 4 read lanes, 2 on the banks' A ports and 2 on their B ports. Its front end takes the 256 tests
+  * in 128 groups of 2: the pattern, the rotation with the bin's cos/sin (x' = round(x cos - y sin), y' = round(x sin
   * + y cos), half to even), the ring slots, and the read schedule of `orb.model.DescriptorSchedule` (`GroupPlanner`):
-  * a group takes one clock when its 8 points fit the lanes, otherwise each half or each test in turn. The front end
+  * a group takes one clock when its 4 points fit the lanes, otherwise each test in turn. The front end
   * depends on nothing read, so it runs ahead of the reads; it holds (`advance` low) while a group takes more than
   * one clock. Every lane's bank and address are registered before the banks, each bank port picks its address from
   * the registered lanes beside the RAM, the RAM's data is registered on the way out (the block's output register),
@@ -73,10 +73,11 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
     val frame = UInt(frameTagWidth bits)
   }
 
-  /** The smoothed stream, a clock late: beat (x, y) carries smoothed pixel (x - 3, y - 3) of raw row y, written
+  /** The smoothed stream, two clocks late: beat (x, y) carries smoothed pixel (x - 3, y - 3) of raw row y, written
     * into the ring slot of its row. The registers describe the stream after the newest beat. */
   val ring = new Area {
-    val s = io.smoothed
+    // the smoother's beat registered here first: no row or slot decision hangs on the long wires from it
+    val s = io.smoothed.stage()
     val startsRow = s.valid && s.pixel.x === 0
     val startsFrame = startsRow && s.pixel.y === 0
     val slot = Reg(UInt(slotWidth bits)) init 0
@@ -166,7 +167,8 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
   /** Hands the queue's head to the engine. The decision is taken on registered values: the head's row test against
     * the stream is registered, and it starts a clock later unless a row started in between. */
   val dispatch = new Area {
-    val head = ready.io.pop.m2sPipe().map(lookupCosSin).m2sPipe().map(prepare).m2sPipe()
+    // the queue's RAM through a register both ways (no decision reaches its read pointer), then the lookups
+    val head = ready.io.pop.s2mPipe().m2sPipe().map(lookupCosSin).m2sPipe().map(prepare).m2sPipe()
     val c = head.payload.item
     // rows since the patch was complete (negative: not yet)
     val since = (ring.rowCount - c.startRow).asSInt
@@ -369,7 +371,7 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
       val valid = Bool()
       val completes, held = Bits(testsPerGroup bits)
       val lane1, lane2 = Vec(UInt(GroupPlanner.laneWidth bits), testsPerGroup)
-      /** a test's first point read alone (through lane 4): keep it for the next clock */
+      /** a test's first point read alone (through the first B lane): keep it for the next clock */
       val hold = Bool()
       /** the group's last clock */
       val last = Bool()
@@ -471,7 +473,7 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
       // the bank number goes on with the reads, to pick the data on the way back
       val bank3 = RegNext(Vec(located.map(_.bank)))
     }
-    /** A bank port's read this clock: lanes 0-3 on port A, lanes 4-7 on port B (at most one each). */
+    /** A bank port's read this clock: the first lanes on port A, the others on port B (at most one each). */
     def portRead(bank: Int, portB: Boolean): (Bool, UInt) = {
       val ls = if (portB) lanesPerPort until 2 * lanesPerPort else 0 until lanesPerPort
       val ports = ls.map(read.ports(bank / 4)(_))
@@ -539,7 +541,7 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
 
   // The store: bank b holds ring slots 2b and 2b + 1 at (slot & 1) ## column (a single slot has no such bit).
   // Port A writes the stream, which has priority (no point reads the written row's bank through port A: see
-  // `DescriptorSchedule`), or reads lanes 0-3; port B reads lanes 4-7.
+  // `DescriptorSchedule`), or reads the A lanes; port B reads the B lanes.
   val store = for (b <- 0 until banks) yield new Area {
     val pair = 2 * b + 1 < rows
     val depth = (if (pair) 2 else 1) << colWidth

@@ -18,14 +18,14 @@ case class GroupPlan() extends Bundle {
   val issues = UInt(GroupPlanner.issuesWidth bits)
 }
 
-/** `DescriptorSchedule.plan` in hardware: the read schedule of a group of 4 tests from its points' banks, in
+/** `DescriptorSchedule.plan` in hardware: the read schedule of a group of tests from its points' banks, in
   * `GroupPlanner.latency` registered steps that all advance with `advance` (the descriptor engine's front end holds
   * while a group takes more than one clock). It depends on nothing read, so it runs ahead of the reads.
   *
-  * Steps: (1) which points share a bank; (2) per candidate set (the group, each half, each test) the port rule's
-  * flags: forced to port A, alone in its bank, and whether the set can go in one clock at all; (3) counts: which
-  * points go through port A, and whether the whole group fits; (4) ranks within each port, the mode (group, half,
-  * test or point at a time) and each point's clock. */
+  * Steps: (1) which points share a bank; (2) per candidate set (the group, each test) the port rule's flags: forced
+  * to port A, alone in its bank, and whether the set can go in one clock at all; (3) counts: which points go through
+  * port A, and whether the whole group fits; (4) ranks within each port, the mode (group, test or point at a time)
+  * and each point's clock. */
 class GroupPlanner(bankWidth: Int) extends Component {
   import GroupPlanner._
   val io = new Bundle {
@@ -36,9 +36,8 @@ class GroupPlanner(bankWidth: Int) extends Component {
   def step[T <: Data](v: T): T = RegNextWhen(v, io.advance)
 
   val all: Seq[Int] = 0 until pointsPerGroup
-  val halves: Seq[Seq[Int]] = Seq(0 until 4, 4 until 8)
   val tests: Seq[Seq[Int]] = (0 until testsPerGroup).map(t => Seq(2 * t, 2 * t + 1))
-  val sets: Seq[Seq[Int]] = all +: (halves ++ tests)
+  val sets: Seq[Seq[Int]] = all +: tests
 
   // (1) pairs in one bank
   val shared = new Area {
@@ -108,31 +107,23 @@ class GroupPlanner(bankWidth: Int) extends Component {
       val rankB = (U(k, laneWidth bits) - rankA).resize(laneWidth bits)
       Mux(p.onA(k), rankA, U(lanesPerPort, laneWidth bits) + rankB)
     })
-    val full = ports.bySet(0)
-    val half = (0 until 2).map(h => ports.bySet(1 + h))
-    val test = (0 until testsPerGroup).map(t => ports.bySet(3 + t))
-    val fullLanes = lanesOf(full, pointsPerGroup)
-    val halfLanes = half.map(lanesOf(_, 4))
+    val group = ports.bySet(0)
+    val test = (0 until testsPerGroup).map(t => ports.bySet(1 + t))
+    val groupLanes = lanesOf(group, pointsPerGroup)
     val testLanes = test.map(lanesOf(_, 2))
-    // clocks per test (a test that does not fit goes point by point), per half
-    val testClocks = test.map(t => Mux(t.fits, U(1, issueWidth bits), U(2, issueWidth bits)))
-    val halfClocks = (0 until 2).map(h => Mux(half(h).fits, U(1, issueWidth bits), testClocks(2 * h) + testClocks(2 * h + 1)))
+    // clocks per test (a test that does not fit goes point by point), and where each test starts
+    val testClocks = test.map(t => Mux(t.fits, U(1, issuesWidth bits), U(2, issuesWidth bits)))
+    val testStart = testClocks.scanLeft(U(0, issuesWidth bits))(_ + _)
     val plan = GroupPlan()
     for (i <- all) {
-      val h = i / 4
       val t = i / 2
-      val firstOfHalf = t % 2 == 0
-      val halfStart = if (h == 0) U(0, issueWidth bits) else halfClocks(0)
-      val testStart = if (firstOfHalf) U(0, issueWidth bits) else testClocks(t - 1)
-      val second = if (i % 2 == 1) Mux(test(t).fits, U(0, issueWidth bits), U(1, issueWidth bits)) else U(0, issueWidth bits)
-      val inHalf = Mux(half(h).fits, U(0, issueWidth bits), testStart + second)
-      plan.issue(i) := Mux(full.fits, U(0, issueWidth bits), halfStart + inHalf)
-      // a point read alone must read through port B (two such points of a test in one bank): lane 4
+      val second = if (i % 2 == 1) Mux(test(t).fits, U(0, issuesWidth bits), U(1, issuesWidth bits)) else U(0, issuesWidth bits)
+      plan.issue(i) := Mux(group.fits, U(0, issueWidth bits), (testStart(t) + second).resize(issueWidth))
+      // a point read alone must read through port B (two such points of a test in one bank): the first B lane
       val alone = U(lanesPerPort, laneWidth bits)
-      plan.lane(i) := Mux(full.fits, fullLanes(i),
-        Mux(half(h).fits, halfLanes(h)(i % 4), Mux(test(t).fits, testLanes(t)(i % 2), alone)))
+      plan.lane(i) := Mux(group.fits, groupLanes(i), Mux(test(t).fits, testLanes(t)(i % 2), alone))
     }
-    plan.issues := Mux(full.fits, U(1, issuesWidth bits), (halfClocks(0) +^ halfClocks(1)).resize(issuesWidth))
+    plan.issues := Mux(group.fits, U(1, issuesWidth bits), testStart.last)
     io.plan := step(plan)
   }
 }

@@ -10,10 +10,12 @@ import Arith._
   * buffer's RAM, across the chip), puts a register after every adder tree and multiplier, and gives the gradients
   * two registers before the products (the second becomes the multiplier block's input register, the first stays
   * beside the Sobel adders, so no adder drives the long wires to the multipliers). */
-case class HarrisStages(sobel: Int = 1, products: Int = 3, columnPre: Int = 4, columnSum: Int = 5, rowPre: Int = 6,
-                        rowMid: Int = 7, rowSum: Int = 8, multiply: Int = 9, kTrace: Int = 10, response: Int = 11,
-                        suppressRead: Int = 12, segmentCompare: Int = 1, segmentArc: Int = 2) {
-  private val order = Seq(sobel, products, columnPre, columnSum, rowPre, rowMid, rowSum, multiply, kTrace, response, suppressRead)
+case class HarrisStages(sobel: Int = 1, sobelDiff: Int = 2, products: Int = 4, columnPre: Int = 5, columnSum: Int = 6,
+                        rowPre: Int = 7, rowMid: Int = 8, rowSum: Int = 9, trace: Int = 10, multiply: Int = 11,
+                        kTrace: Int = 12, response: Int = 13, suppressRead: Int = 14, segmentCompare: Int = 1,
+                        segmentArc: Int = 2) {
+  private val order = Seq(sobel, sobelDiff, products, columnPre, columnSum, rowPre, rowMid, rowSum, trace, multiply, kTrace,
+    response, suppressRead)
   require(order.head >= 0 && order.zip(order.tail).forall { case (a, b) => b > a },
     "each step needs the previous one's registered result: node indices must strictly increase")
   require(segmentCompare >= 0 && segmentArc > segmentCompare && segmentArc <= response,
@@ -76,15 +78,20 @@ class HarrisDetector(f: FrameConfig, h: HarrisConfig, columnRows: Int, stages: H
   }
 
   // Column index r is r rows above the newest; gradients are taken for the 7 rows centred on indices 1..7,
-  // at column x-1 of the newest pixel x.
+  // at column x-1 of the newest pixel x. The 1 2 1 sums in one step, their differences in the next.
   val sobelNode = at(stages.sobel)
   val sobel = new sobelNode.Area {
     val cols = lastValid(this(COLUMN), 3, isValid) // 0: column x, 1: x-1, 2: x-2
     def px(c: Int, r: Int): SInt = cols(c)(r).intoSInt
     val gw = h.gradWidth
-    val GX = insert(Vec((1 to 7).map(r => w121(px(0, r - 1), px(0, r), px(0, r + 1), gw) - w121(px(2, r - 1), px(2, r), px(2, r + 1), gw))))
+    val RIGHT = insert(Vec((1 to 7).map(r => w121(px(0, r - 1), px(0, r), px(0, r + 1), gw))))
+    val LEFT = insert(Vec((1 to 7).map(r => w121(px(2, r - 1), px(2, r), px(2, r + 1), gw))))
     // Index r-1 is the row below r (newer), so gy = bottom - top as in OpenCV.
-    val GY = insert(Vec((1 to 7).map(r => w121(px(0, r - 1), px(1, r - 1), px(2, r - 1), gw) - w121(px(0, r + 1), px(1, r + 1), px(2, r + 1), gw))))
+    val BOTTOM = insert(Vec((1 to 7).map(r => w121(px(0, r - 1), px(1, r - 1), px(2, r - 1), gw))))
+    val TOP = insert(Vec((1 to 7).map(r => w121(px(0, r + 1), px(1, r + 1), px(2, r + 1), gw))))
+    val diffNode = at(stages.sobelDiff)
+    val GX = diffNode.insert(Vec((0 until 7).map(i => diffNode(RIGHT)(i) - diffNode(LEFT)(i))))
+    val GY = diffNode.insert(Vec((0 until 7).map(i => diffNode(BOTTOM)(i) - diffNode(TOP)(i))))
   }
 
   // Segment test at the window's centre (x - 4, y - 4 of the newest pixel x, y): its 7x7 raw pixels are rows
@@ -138,13 +145,18 @@ class HarrisDetector(f: FrameConfig, h: HarrisConfig, columnRows: Int, stages: H
     val SXY = at(stages.rowSum).insert(window(column.VXY).resize(h.sCrossWidth))
   }
 
+  // The trace in its own step, so that every multiplier input is a plain register (the block's input register).
+  val traceNode = at(stages.trace)
+  val trace = new traceNode.Area {
+    val TRACE = insert((row.SXX +^ row.SYY).resize(h.traceWidth))
+  }
+
   // det and trace^2: three multipliers of at most 18x18 bits with the default shifts.
   val multiplyNode = at(stages.multiply)
   val multiply = new multiplyNode.Area {
     val XXYY = insert(row.SXX * row.SYY)
     val XY2 = insert((row.SXY * row.SXY).asUInt.resize(2 * h.sCrossWidth - 2))
-    val trace = (row.SXX +^ row.SYY).resize(h.traceWidth)
-    val TR2 = insert(trace * trace)
+    val TR2 = insert(trace.TRACE * trace.TRACE)
   }
 
   val kTraceNode = at(stages.kTrace)

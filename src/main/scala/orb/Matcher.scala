@@ -202,21 +202,32 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
 
   // The rescan's data path: the scores read through the cross port, the lowest (first on ties) of them all.
   val rescanMin = new Area {
-    // Registered three times: the RAM data, the group's lowest, the running lowest; no path holds two of them.
+    // Registered at every step: the RAM data (its output register), each level of the group's lowest, the running
+    // lowest; no path holds two of them.
     val scores = reads.map(r => r.cross.asBits.resize(h.scoreWidth).asUInt)
     val read = Delay(rescan.issuing, 2, init = False)
     val base = Delay(rescan.group.resize(countWidth) |<< log2Up(P), 2)
     val first = Delay(rescan.issuing && rescan.group === 0, 2, init = False)
-    // the group's lowest score, the first lane on ties
-    val (lowNow, laneNow) = scores.zipWithIndex.map { case (v, l) => (v, U(l, countWidth bits)) }
-      .reduceBalancedTree { (a, b) => val takeB = b._1 < a._1; (Mux(takeB, b._1, a._1), Mux(takeB, b._2, a._2)) }
-    val low = RegNext(lowNow); val index = RegNext(base | laneNow)
-    val valid = RegNext(read) init False; val firstD = RegNext(first) init False
+    // the group's lowest score, the first lane on ties, a register after every level of comparisons
+    def lower(a: (UInt, UInt), b: (UInt, UInt)): (UInt, UInt) = {
+      val takeB = b._1 < a._1
+      (Mux(takeB, b._1, a._1), Mux(takeB, b._2, a._2))
+    }
+    var level: Seq[(UInt, UInt)] = scores.zipWithIndex.map { case (v, l) => (v, U(l, countWidth bits)) }
+    val levels = log2Up(P) max 1
+    for (_ <- 0 until levels) {
+      level = level.grouped(2).map(g => if (g.size == 1) g.head else lower(g(0), g(1))).map { case (v, l) => (RegNext(v), RegNext(l)) }.toSeq
+    }
+    val low = level.head._1
+    val index = Delay(base, levels) | level.head._2
+    val valid = Delay(read, levels, init = False)
+    val firstD = Delay(first, levels, init = False)
     val accScore = Reg(UInt(h.scoreWidth bits)); val accIndex = Reg(UInt(countWidth bits))
     val takeNew = firstD || low < accScore
     when(valid && takeNew) { accScore := low; accIndex := index }
-    // busy until the new weakest is in place, so that the next keyframe feature compares against it
-    val last = RegNext(valid && !read) init False
+    // busy until the new weakest is in place, so that the next keyframe feature compares against it: the last
+    // group's result is the one no read follows
+    val last = RegNext(valid && !Delay(read, levels - 1, init = False)) init False
     when(last) { rescan.busy := False; weakest.score := accScore; weakest.index := accIndex }
   }
 

@@ -153,29 +153,50 @@ class OrientationUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, c
     U(0, f.counterWidth bits))
 
   val heightOfFirst = sums.heights.indexOf(vmax(R))
+  // Each slot picks its column's sums (by the column's disc height) into registers of its own, then accumulates them a
+  // clock later: the wide sums fan out to the slots' selections, and no adder waits for a selection.
+  case class Pick() extends Bundle {
+    val valid, first, last, active, frameStart = Bool()
+    val t = UInt(sumWidth bits)
+    val tv = SInt(sumWidth bits)
+  }
   val accumulate = for ((slot, i) <- slots.zipWithIndex) yield new Area {
     val first = starting(i)
     val u = Mux(first, S(-R, 6 bits), slot.u)
     val height = Mux(first, U(heightOfFirst, slot.height.getWidth bits), slot.height)
-    val acc1 = Mux(first, U(0, acc1Width bits), slot.acc1)
-    val acc2 = Mux(first, U(0, acc2Width bits), slot.acc2)
-    val m01 = Mux(first, S(0, momentWidth bits), slot.m01)
-    when(first) { slot.corner := startCorner }
     val last = u === R
+    val advancing = beat.valid && (slot.busy || first)
+    when(first) { slot.corner := startCorner }
     when(beat.frameStart) {
       slot.busy := False
-    } elsewhen (beat.valid && (slot.busy || first)) {
-      slot.acc1 := acc1 + beat.T(height).resize(acc1Width)
-      // the running sum of the columns before this one (a2 lags a column behind): no adder waits for acc1's
-      slot.acc2 := acc2 + acc1.resize(acc2Width)
-      slot.m01 := m01 + beat.TV(height).resize(momentWidth)
+    } elsewhen (advancing) {
       slot.u := u + 1
       slot.height := sums.index(u + 1)
       slot.busy := !last
     }
+    val pick = Pick()
+    pick.valid := advancing && !beat.frameStart
+    pick.first := first
+    pick.last := last
+    pick.active := beat.active
+    pick.frameStart := beat.frameStart
+    pick.t := beat.T(height)
+    pick.tv := beat.TV(height)
+    val picked = RegNext(pick)
+    picked.valid.init(False)
+    val p = picked
+    val acc1 = Mux(p.first, U(0, acc1Width bits), slot.acc1)
+    val acc2 = Mux(p.first, U(0, acc2Width bits), slot.acc2)
+    val m01 = Mux(p.first, S(0, momentWidth bits), slot.m01)
+    when(p.valid) {
+      slot.acc1 := acc1 + p.t.resize(acc1Width)
+      // the running sum of the columns before this one (a2 lags a column behind): no adder waits for acc1's
+      slot.acc2 := acc2 + acc1.resize(acc2Width)
+      slot.m01 := m01 + p.tv.resize(momentWidth)
+    }
     // The last column completes the patch: emitted (from the registers, a clock later) only if no fault came
     // before it in the frame.
-    val emit = RegNext(beat.valid && (slot.busy || first) && last && !beat.frameStart && beat.active) init False
+    val emit = RegNext(p.valid && p.last && p.active) init False
   }
   // The finished patch, a clock after its last column: m10 = 16 a1 - a2 = 15 a1 - a2' (a2' = acc2, a column
   // behind) is formed in the stage after.
@@ -196,13 +217,13 @@ class OrientationUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, c
     val p = Patch(); p.corner := slot.corner; p.m01 := slot.m01; p.a1 := slot.acc1; p.a2 := slot.acc2; p
   })
   val beatD = new Area {
-    // The beat of the last column, in row cy + R; the descriptor's 37 smoothed rows are complete when row cy + 22
-    // starts.
-    val startRow = RegNext(beat.rowNow + (OrbDescriptorConfig.startRowOffset - R))
-    val frameTag = RegNext(beat.frameNow)
-    val keyframe = RegNext(beat.keyframe)
-    val ends = RegNext(beat.valid && beat.ends) init False
-    val end = RegNext(beat.end)
+    // The beat of the last column (two clocks on, with its patch), in row cy + R; the descriptor's 37 smoothed rows
+    // are complete when row cy + 22 starts.
+    val startRow = RegNext(RegNext(beat.rowNow + (OrbDescriptorConfig.startRowOffset - R)))
+    val frameTag = RegNext(RegNext(beat.frameNow))
+    val keyframe = RegNext(RegNext(beat.keyframe))
+    val ends = RegNext(RegNext(beat.valid && beat.ends) init False) init False
+    val end = RegNext(RegNext(beat.end))
   }
   // A frame's end follows its corners: no corner of a good frame finishes on its last pixel (the last corners
   // finish 7 rows earlier), and on a fault no corner finishes (it would be dropped).

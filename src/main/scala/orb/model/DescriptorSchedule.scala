@@ -2,25 +2,25 @@ package orb.model
 
 import orb.OrbDescriptorConfig
 
-/** The descriptor engine's read schedule (`orb.DescriptorUnit`): in which clock, and through which of its 8 read
-  * lanes, each point of a group of 4 tests is read from the banked store of smoothed rows.
+/** The descriptor engine's read schedule (`orb.DescriptorUnit`): in which clock, and through which of its 4 read
+  * lanes, each point of a group of 2 tests is read from the banked store of smoothed rows.
   *
   * It does not change what the core computes (the descriptor is `OrbModel.descriptor` whatever the schedule), but
   * it fixes how many clocks a descriptor takes, and so the feature budget's service bound
   * (`OrbConfig.budgetService`). `orb.DescriptorPlannerSpec` checks the hardware planner against `plan`, and
   * `orb.DescriptorSpec` the engine's clocks per descriptor against `issueClocks`.
   *
-  * The store: ring slot s (one smoothed row) lives in bank s / 2; each bank has two ports. Lanes 0-3 read through
-  * port A of their bank, lanes 4-7 through port B. The stream writes the newest row through port A of its bank,
+  * The store: ring slot s (one smoothed row) lives in bank s / 2; each bank has two ports. Lanes 0-1 read through
+  * port A of their bank, lanes 2-3 through port B. The stream writes the newest row through port A of its bank,
   * whose other row can only be a patch's newest or oldest row (|ry| = 18): such points always read through port B.
   *
-  * A group goes in one clock when its 8 points fit the lanes (no bank read three times, no bank's port B read
-  * twice, at most 4 points per port); otherwise each half (2 tests) that fits goes in one clock, and the tests of a
-  * half that does not fit one at a time (a test whose two points both need port B of one bank in two clocks). */
+  * A group goes in one clock when its 4 points fit the lanes (no bank read three times, no bank's port B read
+  * twice, at most 2 points per port); otherwise its tests one at a time (a test whose two points both need port B
+  * of one bank in two clocks). */
 object DescriptorSchedule {
-  val testsPerGroup: Int = 4
+  val testsPerGroup: Int = 2
   val pointsPerGroup: Int = 2 * testsPerGroup
-  val lanesPerPort: Int = 4
+  val lanesPerPort: Int = 2
   val groups: Int = 256 / testsPerGroup
 
   /** A point of a group: its bank, and whether it must read through port B. */
@@ -73,25 +73,18 @@ object DescriptorSchedule {
     lanes(points, 0 until pointsPerGroup) match {
       case Some(l) => take(0 until pointsPerGroup, l)
       case None =>
-        for (half <- 0 until 2) {
-          val halfSet = 4 * half until 4 * half + 4
-          lanes(points, halfSet) match {
-            case Some(l) => take(halfSet, l)
-            case None =>
-              for (t <- 2 * half until 2 * half + 2) {
-                val testSet = Seq(2 * t, 2 * t + 1)
-                lanes(points, testSet) match {
-                  case Some(l) => take(testSet, l)
-                  case None => for (i <- testSet) take(Seq(i), lanes(points, Seq(i)).get)
-                }
-              }
+        for (t <- 0 until testsPerGroup) {
+          val testSet = Seq(2 * t, 2 * t + 1)
+          lanes(points, testSet) match {
+            case Some(l) => take(testSet, l)
+            case None => for (i <- testSet) take(Seq(i), lanes(points, Seq(i)).get)
           }
         }
     }
     Plan(issue.toIndexedSeq, lane.toIndexedSeq, clock)
   }
 
-  /** The points of the 64 groups of a bin's tests, for a patch whose oldest row is in slot `base`. */
+  /** The points of the groups of a bin's tests, for a patch whose oldest row is in slot `base`. */
   def groupPoints(bin: Int, base: Int, cfg: OrbDescriptorConfig): IndexedSeq[IndexedSeq[Point]] =
     OrbModel.rotatedTests(bin, cfg).grouped(testsPerGroup).map { tests =>
       tests.flatMap { case (_, y1, _, y2) =>
