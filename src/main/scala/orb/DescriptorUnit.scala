@@ -67,6 +67,8 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
   require(DescriptorSchedule.banks(d) == banks)
 
   def nextSlot(s: UInt): UInt = Mux(s === rows - 1, U(0, slotWidth bits), s + 1)
+  /** ring slot -> bank (slot / 2), as a slice */
+  def bankOf(slot: UInt): UInt = slot(slotWidth - 1 downto 1).resize(bankWidth)
 
   case class RowInfo() extends Bundle {
     val active = Bool()
@@ -104,7 +106,7 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
     }
     // the newest beat's write, decoded for the banks
     val writes = s.valid && s.pixel.x >= blurRadius
-    val writeBank = RegNext(Mux(writes, UIntToOh((slotNext >> 1).resize(bankWidth), banks), B(0, banks bits))) init 0
+    val writeBank = RegNext(Mux(writes, UIntToOh(bankOf(slotNext), banks), B(0, banks bits))) init 0
     val writeAddress = RegNext((slotNext.lsb ## (s.pixel.x - blurRadius).resize(colWidth)).asUInt)
     val writeData = RegNext(s.smoothed)
   }
@@ -313,10 +315,26 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
       o.negative := negative
       o
     }
-    val sums = new Area {
+    /** the sum, registered beside the multipliers, then its rounding bits */
+    case class Total() extends Bundle {
+      val value = SInt(sumWidth bits)
+      val negative = Bool()
+    }
+    def total(v: SInt, negative: Bool): Total = {
+      val o = Total()
+      o.value := v
+      o.negative := negative
+      o
+    }
+    val totals = new Area {
       val valid = stepValid(products.valid)
-      val x = products.p.map(p => step(sum(addSub(p.xc, p.ys, p.xSubtract), p.xNegative)))
-      val y = products.p.map(p => step(sum(addSub(p.xs, p.yc, p.ySubtract), p.yNegative)))
+      val x = products.p.map(p => step(total(addSub(p.xc, p.ys, p.xSubtract), p.xNegative)))
+      val y = products.p.map(p => step(total(addSub(p.xs, p.yc, p.ySubtract), p.yNegative)))
+    }
+    val sums = new Area {
+      val valid = stepValid(totals.valid)
+      val x = totals.x.map(t => step(sum(t.value, t.negative)))
+      val y = totals.y.map(t => step(sum(t.value, t.negative)))
     }
     /** floor(v / 2^fb) + 1 when the rest is above the half, or exactly the half and the floor odd (cvRound), then
       * the sign */
@@ -354,7 +372,7 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
     val planner = new GroupPlanner(bankWidth)
     planner.io.advance := advance
     for (i <- 0 until pointsPerGroup) {
-      planner.io.points(i).bank := (located.points(i).slot >> 1).resize(bankWidth)
+      planner.io.points(i).bank := bankOf(located.points(i).slot)
       planner.io.points(i).portB := located.portB(i)
     }
     val planned = new Area {
@@ -450,7 +468,7 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
         val o = LaneAddress()
         val column = (corner.corner.x.intoSInt + l.rx).asUInt.resize(colWidth)
         o.valid := l.valid
-        o.bank := (l.slot >> 1).resize(bankWidth)
+        o.bank := bankOf(l.slot)
         o.address := (l.slot.lsb ## column).asUInt
         val r = RegNext(o)
         r.valid.init(False)
@@ -501,7 +519,7 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
       val bank6 = RegNext(bank5)
       // level 2: the cluster
       val value = Vec(read.lanes.indices.map { l =>
-        val k = (bank6(l) >> 2).resize(log2Up(clusters max 2))
+        val k = bank6(l)(bankWidth - 1 downto 2).resize(log2Up(clusters max 2))
         RegNext(level1(l)(k))
       })
       val reads7 = delayed(reads6)
@@ -589,7 +607,7 @@ object DescriptorUnit {
 
   /** Clocks from a corner's start to its finished descriptor beyond its read issues: the front end before the first
     * issue, and the reads, the comparison and the collection after the last. */
-  val engineLatency: Int = 20
+  val engineLatency: Int = 21
 
   /** Clocks the engine takes for a corner of bin `bin` whose patch's oldest row is in ring slot `base`. */
   def clocks(bin: Int, base: Int, d: OrbDescriptorConfig): Int = engineLatency + DescriptorSchedule.issueClocks(bin, base, d)

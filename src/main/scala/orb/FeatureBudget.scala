@@ -68,30 +68,49 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
   val banks = Vec.fill(2)(Vec.fill(cells)(Vec.fill(k)(Reg(Entry()))))
   for (bank <- banks; cell <- bank; e <- cell) e.valid.init(False)
 
-  // A corner into its cell's list, in two clocks: the corner and its list are registered, then the list is updated
-  // (corners are at least two clocks apart after the 3x3 suppression, so the next corner sees the update).
+  // A corner into its cell's list, in three registered steps: the corner and its list (read from the bank, or the
+  // update of the corner before it when that one has not reached the bank yet); which entries stay ahead of it; the
+  // updated list, written back. Corners are at least two clocks apart after the 3x3 suppression.
   // `ahead` (valid and at least as strong) is a prefix of the sorted list.
   val intake = new Area {
-    val c = io.corners.stage()
-    val bank = Reg(UInt(1 bits))
-    val cellIndex = Reg(UInt(log2Up(cells max 2) bits))
-    val list = Reg(Vec.fill(k)(Entry()))
+    val cellWidth = log2Up(cells max 2)
+    val updated = Vec.fill(k)(Entry())
+    val read = new Area {
+      val c = io.corners.stage()
+      val bank = Reg(UInt(1 bits))
+      val cellIndex = Reg(UInt(cellWidth bits))
+      val list = Reg(Vec.fill(k)(Entry()))
+    }
+    val compare = new Area {
+      val c = read.c.stage()
+      val bank = RegNext(read.bank)
+      val cellIndex = RegNext(read.cellIndex)
+      val list = RegNext(read.list)
+      val inList = Vec((0 until k).map(i => U(i) < perCell.value))
+      val ahead = Vec((0 until k).map(i => RegNext(read.list(i).valid && read.list(i).score >= read.c.score && U(i) < perCell.value)))
+      val full = RegNext((0 until k).map(i => !(U(i) < perCell.value) || read.list(i).valid).andR)
+    }
+    val c = compare.c
+    // the corner two clocks ahead writes its cell now: a corner of the same cell takes that update instead
+    val bankNow = io.corners.y(b.bandShift downto b.bandShift)
+    val cellNow = io.corners.x(b.cellShift, cellWidth bits)
+    val sameCell = c.valid && compare.bank === bankNow && compare.cellIndex === cellNow
     when(io.corners.valid) {
-      bank := io.corners.y(b.bandShift downto b.bandShift)
-      cellIndex := io.corners.x(b.cellShift, log2Up(cells max 2) bits)
-      list := banks(io.corners.y(b.bandShift downto b.bandShift))(io.corners.x(b.cellShift, log2Up(cells max 2) bits))
+      read.bank := bankNow
+      read.cellIndex := cellNow
+      read.list := Mux(sameCell, updated, banks(bankNow)(cellNow))
     }
     val fresh = Entry()
     fresh.valid := True
     fresh.xOffset := c.x.resize(b.cellShift)
     fresh.yOffset := c.y.resize(b.bandShift)
     fresh.score := c.score
-    val inList = Vec((0 until k).map(i => U(i) < perCell.value))
-    val ahead = Vec((0 until k).map(i => list(i).valid && list(i).score >= c.score && inList(i)))
-    val full = (0 until k).map(i => !inList(i) || list(i).valid).andR
+    val list = compare.list
+    val ahead = compare.ahead
+    val inList = compare.inList
     // Entries ahead of the corner stay, the corner takes the first place after them, the rest move down one.
-    val updated = Vec((0 until k).map { i =>
-      val e = Entry()
+    for (i <- 0 until k) {
+      val e = updated(i)
       if (i == 0) e := fresh
       else {
         e := list(i - 1)
@@ -99,11 +118,12 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
       }
       when(ahead(i)) { e := list(i) }
       when(!inList(i)) { e := emptyEntry }
-      e
-    })
+    }
     // The list keeps k entries: the corner itself, or the weakest entry it pushes out, is deselected.
-    val deselect = c.valid && full
-    when(c.valid) { banks(bank)(cellIndex) := updated }
+    val deselect = c.valid && compare.full
+    when(c.valid) { banks(compare.bank)(compare.cellIndex) := updated }
+    /** a corner on its way into a list */
+    val busy = read.c.valid || c.valid
   }
 
   // A band is complete at the first pixel of row (band end + emitRowOffset); its winners leave in raster order.
@@ -251,7 +271,7 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
       pendingOk := (pending && pendingOk) || io.frameEnds.ok
     }
     // nothing in flight: no corner on its way into a list, no band being emitted, no winner's count unwritten
-    val quiet = !io.corners.valid && !intake.c.valid && !emission.busy && !emission.trigger && !decide.inFlight
+    val quiet = !io.corners.valid && !intake.busy && !emission.busy && !emission.trigger && !decide.inFlight
     val fire = pending && quiet
     when(fire) { pending := False }
     // after reset the histogram RAM may hold a cut-off frame's counts: the walk empties it first

@@ -295,7 +295,7 @@ object Report {
       md ++= s"| ${m.block} | ${m.name} | ${m.depth} x ${m.width} | ${if (m.rom) "ROM" else "RAM"} | ${m.m4k} | ${m.shape._1}x${m.shape._2} |\n"
     md ++= s"\n## Feature budget capacity\n\nCells of ${cfg.budget.cellWidth} x ${cfg.budget.cellHeight} px keep ${cfg.budget.perCell} corners " +
       s"(by line length: ${cfg.perCellSteps.map { case (w, k) => s"$k from $w px" }.mkString(", ")}); at most ${cfg.budgetPerBand} per band " +
-      s"in ${cfg.maxWidth}-px lines. A descriptor takes at most $tDesc clocks of an engine (2 engines), the matcher " +
+      s"in ${cfg.maxWidth}-px lines. A descriptor takes at most $tDesc clocks of the engine, the matcher " +
       s"${cfg.matcher.clocksPerFeature} clocks per live feature: ${cfg.clocksPerFeature} clocks per feature in a busy stretch " +
       s"(`OrbConfig.budgetService` checks every line length).\n"
     md ++= "\n## Timing proxy\n\n"

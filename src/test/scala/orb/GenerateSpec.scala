@@ -97,8 +97,10 @@ class GenerateSpec extends AnyFunSuite {
     println(s"[orb] RAMs: ${rams.groupBy(m => s"${m.depth}x${m.width}").map { case (k, v) => s"${v.size} x $k" }.mkString(", ")}; " +
       s"ROMs (constant tables): ${roms.size}")
     for (m <- rams) assert(m.readClocked.matches("\\d+'1+"), s"${m.name}: a read port is not registered")
-    assert(rams.count(_.name.startsWith("\\store_")) == config.descriptor.smoothedRows, "one RAM per smoothed row")
+    val banks = rams.filter(_.name.startsWith("\\store_"))
+    assert(banks.size == config.descriptor.smoothedBanks, "one RAM per bank of two smoothed rows")
+    assert(banks.map(_.depth).sum == config.descriptor.smoothedRows * config.maxWidth, "a row of maxWidth bytes per ring slot")
     assert(rams.exists(_.name == "\\window_ram") && rams.exists(_.name == "\\suppress_scores_ram"))
-    assert(rams.filter(m => m.name == "\\window_ram" || m.name.startsWith("\\store_")).forall(_.depth == config.maxWidth), "depth = maxWidth")
+    assert(rams.filter(_.name == "\\window_ram").forall(_.depth == config.maxWidth), "depth = maxWidth")
   }
 }

@@ -21,9 +21,9 @@ class ReportSpec extends AnyFunSuite {
   test("the proxy's wrapper synthesises, and plain registers move into the RAM and multiplier blocks") {
     val dir = new File("target/report-test/probes")
     for ((make, expected) <- Seq[(() => Component, String)](
-      (() => new Ecp5Proxy.RamProbe) -> "ram_ports=1 ram_ffs=16 mult_inputs=0 mult_outputs=0 mult_ffs=0",
+      (() => new Ecp5Proxy.RamProbe) -> "ram_ports=1 ram_ffs=16 mult_inputs=0 mult_outputs=0 mult_ffs=0 mult_constant_pins=0",
       // both operand registers and the product register (16 + 16 + 32 flip-flops)
-      (() => new Ecp5Proxy.MulProbe) -> "ram_ports=0 ram_ffs=0 mult_inputs=2 mult_outputs=1 mult_ffs=64"
+      (() => new Ecp5Proxy.MulProbe) -> "ram_ports=0 ram_ffs=0 mult_inputs=2 mult_outputs=1 mult_ffs=64 mult_constant_pins=5"
     )) {
       val r = Generate.spinalConfig(dir.getPath).generate(make())
       val work = new File(dir, r.toplevelName)
@@ -64,9 +64,12 @@ class ReportSpec extends AnyFunSuite {
     assert(perBlock == number("m4k") && perMemory == number("m4k"))
     val luts = """"luts": (\d+)""".r.findAllMatchIn(blocks).map(_.group(1).toInt).sum
     assert(luts == number("luts"))
-    // The design's memories: one RAM per smoothed row (1024 deep), the raw rows, the store lanes.
+    // The design's memories: the smoothed rows two to a bank (2048 deep; the last bank 1024 when the count is odd),
+    // the raw rows, the store lanes.
     val cfg = OrbConfig.default
-    assert(""""depth": 1024, "width": 8""".r.findAllMatchIn(memories).size == cfg.descriptor.smoothedRows)
+    val rows = cfg.descriptor.smoothedRows
+    assert(""""depth": 2048, "width": 8""".r.findAllMatchIn(memories).size == rows / 2)
+    assert(""""depth": 1024, "width": 8""".r.findAllMatchIn(memories).size == rows % 2)
     assert(memories.contains(s""""depth": ${cfg.matcher.groups}, "width": 278"""))
     assert(number("multipliers") >= 24, "at least the Harris products")
     assert(number("per_cell") == cfg.budget.perCell && number("clocks_per_feature") == cfg.clocksPerFeature &&

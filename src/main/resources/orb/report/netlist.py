@@ -106,7 +106,7 @@ def pack(src, dst, top):
             found.append((pin, s[0][0]))
         return clock, enable, found
 
-    packed = {"ram_ports": 0, "ram_ffs": 0, "mult_inputs": 0, "mult_outputs": 0, "mult_ffs": 0}
+    packed = {"ram_ports": 0, "ram_ffs": 0, "mult_inputs": 0, "mult_outputs": 0, "mult_ffs": 0, "mult_constant_pins": 0}
 
     # ---- RAM output registers ----
     sinks = bit_sinks()
@@ -217,7 +217,7 @@ def pack(src, dst, top):
         for pin in [p for p in k if p.startswith(("SIGNED", "SOURCE", "RST", "CE", "CLK"))]:
             if k[pin][0] in ("0", "1", "x"):
                 del k[pin]
-                packed["mult_constant_pins"] = packed.get("mult_constant_pins", 0) + 1
+                packed["mult_constant_pins"] += 1
     # input flip-flops that nothing but registered multiplier inputs read any more
     sinks = bit_sinks()
     for ff in absorbed_inputs:
