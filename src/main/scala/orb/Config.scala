@@ -120,7 +120,7 @@ final case class CornerParams(threshold: Long, segmentThreshold: Option[Int], ta
   * Rule (`orb.model.BudgetModel` is its specification):
   *  1. Cells. The frame is cut into cells of `cellWidth` columns x `cellHeight` rows (aligned to x = 0, y = 0);
   *     of the corners of a cell only the `perCell` strongest survive (the first in raster order on ties). This
-  *     bounds the density by construction, so that the descriptor engines and the matcher serve every survivor at
+  *     bounds the density by construction, so that the descriptor engine and the matcher serve every survivor at
   *     one pixel per clock for any line length and no blanking at all (`OrbConfig.budgetService` checks it for
   *     every line length; lines too short for `perCell` get fewer per cell, `OrbConfig.perCellFor`).
   *  2. Frame target. The cell winners are ranked in score levels (the leading one's position and the

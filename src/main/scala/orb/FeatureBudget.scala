@@ -68,15 +68,17 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
   val banks = Vec.fill(2)(Vec.fill(cells)(Vec.fill(k)(Reg(Entry()))))
   for (bank <- banks; cell <- bank; e <- cell) e.valid.init(False)
 
-  // A corner into its cell's list, in three registered steps: the corner and its list (read from the bank, or the
+  // A corner into its cell's list, in three registered steps after its input register: the corner and its list (read from the bank, or the
   // update of the corner before it when that one has not reached the bank yet); which entries stay ahead of it; the
   // updated list, written back. Corners are at least two clocks apart after the 3x3 suppression.
   // `ahead` (valid and at least as strong) is a prefix of the sorted list.
   val intake = new Area {
     val cellWidth = log2Up(cells max 2)
     val updated = Vec.fill(k)(Entry())
+    // the detector's corner registered here first: its cell selects a list across a wide multiplexer
+    val arriving = io.corners.stage()
     val read = new Area {
-      val c = io.corners.stage()
+      val c = arriving.stage()
       val bank = Reg(UInt(1 bits))
       val cellIndex = Reg(UInt(cellWidth bits))
       val list = Reg(Vec.fill(k)(Entry()))
@@ -92,10 +94,10 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
     }
     val c = compare.c
     // the corner two clocks ahead writes its cell now: a corner of the same cell takes that update instead
-    val bankNow = io.corners.y(b.bandShift downto b.bandShift)
-    val cellNow = io.corners.x(b.cellShift, cellWidth bits)
+    val bankNow = arriving.y(b.bandShift downto b.bandShift)
+    val cellNow = arriving.x(b.cellShift, cellWidth bits)
     val sameCell = c.valid && compare.bank === bankNow && compare.cellIndex === cellNow
-    when(io.corners.valid) {
+    when(arriving.valid) {
       read.bank := bankNow
       read.cellIndex := cellNow
       read.list := Mux(sameCell, updated, banks(bankNow)(cellNow))
@@ -123,7 +125,7 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
     val deselect = c.valid && compare.full
     when(c.valid) { banks(compare.bank)(compare.cellIndex) := updated }
     /** a corner on its way into a list */
-    val busy = read.c.valid || c.valid
+    val busy = arriving.valid || read.c.valid || c.valid
   }
 
   // A band is complete at the first pixel of row (band end + emitRowOffset); its winners leave in raster order.

@@ -21,8 +21,8 @@ case class CoreStatus(c: FrameConfig) extends Bundle {
   *
   * Never stalls the camera: every stage advances with valid pixels, blanking of any length (also none) passes
   * through; only the feature output is a Stream. The feature budget bounds the corners that go on so that the
-  * orientation slots, the descriptor engines and a consumer as fast as `OrbTop`'s matcher always keep up; a consumer
-  * that waits longer holds the descriptor engines, and a corner that cannot wait for its engine any longer is dropped
+  * orientation slots, the descriptor engine and a consumer as fast as `OrbTop`'s matcher always keep up; a consumer
+  * that waits longer holds the descriptor engine, and a corner that cannot wait for it any longer is dropped
   * and counted. */
 class OrbCore(val cfg: OrbConfig = OrbConfig.default) extends Component {
   val io = new Bundle {

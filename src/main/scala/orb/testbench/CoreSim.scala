@@ -158,7 +158,7 @@ object CoreSim {
   def drive(dut: OrbCore, beats: Seq[Beat], blanking: Blanking, rng: Random, progress: Int => Unit = _ => ()): Unit =
     drivePixels(dut.io.pixels, dut.clockDomain, beats, blanking, rng, progress)
 
-  /** Clocks enough for everything in flight to leave: the corners' pipeline, and the descriptor engines, which
+  /** Clocks enough for everything in flight to leave: the corners' pipeline, and the descriptor engine, which
     * may still be at work after the last pixel (a few descriptors of 256+ clocks each). */
   def drain(dut: OrbCore): Unit = dut.clockDomain.waitSampling(OrbCore.latency() + 4000)
 
