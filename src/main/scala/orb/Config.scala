@@ -286,13 +286,15 @@ case class MatcherConfig(storeCapacity: Int = 512, comparators: Int = 4, popcoun
   require(storeCapacity >= 1 && ratioFracBits >= 1 && ratioFracBits <= 16)
   require(comparators >= 1 && isPow2(comparators) && storeCapacity % comparators == 0,
     "comparators must be a power of two dividing storeCapacity")
-  require(popcountLevelsPerStage >= 1 && outputDepth >= 2 && outputTimeout >= 1)
+  require(popcountLevelsPerStage >= 1 && outputTimeout >= 1)
+  require(outputDepth >= MatcherConfig.pushLatency + 2, "the output FIFO must hold the sweep's pushes in flight")
   require(defaultHammingThreshold >= 0 && defaultHammingThreshold <= 256 && defaultRatio >= 0 && defaultRatio < (2 << ratioFracBits))
   def groups: Int = storeCapacity / comparators
   def ratioWidth: Int = ratioFracBits + 1
-  /** clocks a live feature holds the matcher: the scan, the RAM read and its output register, the popcount, the lane
-    * register, the merge levels, the accumulation, the ratio product, one to decide */
-  def clocksPerFeature: Int = groups + 2 + MatcherConfig.popcountStages(this) + 1 + log2Up(comparators) + 1 + 1 + 1
+  /** clocks a live feature holds the matcher: the scan, the RAM read (address register, RAM, output register), the
+    * popcount, the lane register, the merge levels, the accumulation, the ratio product, one to decide */
+  def clocksPerFeature: Int =
+    groups + MatcherConfig.readLatency + MatcherConfig.popcountStages(this) + 1 + log2Up(comparators) + 1 + 1 + 1
   /** an upper bound on the clocks a frame's end item holds the matcher: a live frame's cross-checked entries leave
     * one per clock (storeCapacity), a keyframe's cross-check words are cleared one group per clock, plus the
     * pipeline */
@@ -303,6 +305,10 @@ object MatcherConfig {
   /** Hamming distances 0..256, and 257 for "none" (no second entry; no live feature yet) */
   val distanceWidth: Int = 9
   val none: Int = 257
+  /** clocks from a read's address to its data: the address register (each lane's own), the RAM, its output register */
+  val readLatency: Int = 3
+  /** clocks from the sweep's read of an entry to its correspondence's push into the output FIFO (a register) */
+  val pushLatency: Int = readLatency + 1
   /** The popcount adds 8-bit chunk counts (32 of them) in a binary tree of 5 levels. */
   val chunkBits: Int = 8
   val treeLevels: Int = log2Up(256 / chunkBits)

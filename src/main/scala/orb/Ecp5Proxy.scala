@@ -199,6 +199,11 @@ object Ecp5Proxy {
     resource("netlist.py", new File(work, "netlist.py"))
     val script = Seq(
       "read_verilog design.v wrapper.v",
+      "hierarchy -top proxy_top",
+      "proc",
+      // copies of a register the design keeps apart (`preserve`, as Quartus honours it) stay apart
+      "select -set preserved a:preserve %ci1:+[Q] a:preserve %d",
+      "setattr -set keep 1 @preserved",
       "synth_ecp5 -top proxy_top -run :map_luts",
       "select -set ffq t:TRELLIS_FF %co:+[Q] t:TRELLIS_FF %d",
       "setattr -set keep 1 @ffq",

@@ -48,7 +48,7 @@ case class MatcherStatus(f: FrameConfig) extends Bundle {
   * waiting and drops, and counts, what does not fit until the consumer takes one again: the feature stream keeps
   * flowing, so later frames are still matched. */
 class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: MatcherConfig) extends Component {
-  import MatcherConfig.{distanceWidth, none}
+  import MatcherConfig.{distanceWidth, none, pushLatency, readLatency}
   val io = new Bundle {
     val features = slave Stream (OrbFeature(f, h, d))
     val params = in(MatchParamsHw(m))
@@ -73,7 +73,10 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
   require(h.scoreWidth <= distanceWidth + 1 + 2 * cw, "a score must fit the cross word it borrows while a keyframe loads")
   def clearedCross: Cross = { val c = Cross(); c.distance := none; c.mutual := False; c.liveX := 0; c.liveY := 0; c }
 
-  val item = io.features
+  // The feature stream through a register at the boundary, valid and ready both registered (`halfPipe`: one item
+  // per two clocks, where features come at most one per descriptor): the load and the scan decide on local
+  // copies, and the copy is enabled by a register, not by the handshake.
+  val item = io.features.halfPipe()
   val isKey = Mux(item.frameEnd, item.end.keyframe, item.keyframe)
 
   // Frame state: the first item of a frame samples the parameters and, on a keyframe, empties the store.
@@ -136,7 +139,7 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
     val group = Reg(UInt(groupWidth + 1 bits)) init 0
     val issuing = busy && group < m.groups
     when(issuing) { group := group + 1 }
-    // a clock after the replacement, whose write is registered on its way to the RAM
+    // a clock after the replacement: its score reaches the RAM two clocks after it, before the first read does
     val starting = RegNext(load.keyFeature && load.replace) init False
     when(starting) { busy := True; group := 0 }
   }
@@ -149,23 +152,40 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
     val issuing = busy && group < groups
     when(issuing) { group := group + 1 }
     val start = item.fire && !frame.keyNow && !item.frameEnd
-    when(start) { busy := True; group := 0; live.x := item.x; live.y := item.y; live.descriptor := item.descriptor }
+    when(start) {
+      busy := True
+      group := 0
+    }
+    // copied every clock while idle (an enable from one register, not from the handshake): the feature that starts
+    // the scan is the last one copied
+    when(!busy) {
+      live.x := item.x
+      live.y := item.y
+      live.descriptor := item.descriptor
+    }
     val readAddr = group.resize(groupWidth)
   }
 
   val output = StreamFifo(CorrespondenceBeat(f), m.outputDepth)
   // Waiting for the consumer, with a limit. The room is judged from the last clock's free places (at most one push
-  // a clock takes one away), so no decision waits for the FIFO's pointers.
+  // a clock takes one away), compared in registers, so no decision waits for the FIFO's pointers or a comparison.
   val paced = new Area {
-    val available = RegNext(output.io.availability) init m.outputDepth
-    /** fewer than three free places now: the sweep, two pushes in flight, has to wait */
-    val tight = available < 4
-    val waited = Reg(UInt(log2Up(m.outputTimeout + 1) bits)) init 0
-    val giveUp = waited === m.outputTimeout
-    when(!tight) { waited := 0 } elsewhen (!giveUp) { waited := waited + 1 }
+    /** the entry read now is pushed `pushLatency` clocks later, after the pushes of the reads in flight and of the one
+      * the last clock's free places do not show yet: with fewer free places than that, the sweep has to wait */
+    val tight = RegNext(output.io.availability < pushLatency + 2) init False
     /** a scan's correspondence (pushed when the scan ends, with nothing else pushed meanwhile) will fit */
-    val itemRoom = available >= 2 || giveUp
-    /** the entry read now is pushed two clocks later: room for it after the pushes in flight */
+    val roomForItem = RegNext(output.io.availability >= 2) init True
+    val waited = Reg(UInt(log2Up(m.outputTimeout + 1) bits)) init 0
+    /** waited === outputTimeout, kept in its own register */
+    val giveUp = Reg(Bool()) init False
+    when(!tight) {
+      waited := 0
+      giveUp := False
+    } elsewhen (!giveUp) {
+      waited := waited + 1
+      giveUp := waited === m.outputTimeout - 1
+    }
+    val itemRoom = roomForItem || giveUp
     val sweepRoom = !tight || giveUp
   }
 
@@ -179,6 +199,8 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
     when(item.fire && item.frameEnd && !frame.keyNow) { busy := True; entry := 0 }
     val lane = entry.resize(log2Up(P) max 1)
     val addr = groupOf(entry, groupWidth)
+    /** reads whose clear has not been written yet: the next feature's scan must not read their words before */
+    val draining = (1 to readLatency + 1).map(k => Delay(reading, k, init = False)).reduce(_ || _)
   }
 
   // Frame end of a keyframe: the scores in the cross words are replaced by cleared cross state, a group per clock.
@@ -193,21 +215,24 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
   val popStages = MatcherConfig.popcountStages(m)
 
   // The read side of every lane: store and cross state, by the scan, the sweep or the rescan, every clock (a read
-  // nobody asked for is ignored), through the RAMs' output registers: the data come two clocks after the address.
+  // nobody asked for is ignored), through a lane's own address register and the RAMs' output registers: the data
+  // come `readLatency` clocks after the address is chosen.
   val reads = for ((lane, l) <- lanes.zipWithIndex) yield new Area {
-    val addr = Mux(rescan.busy, rescan.group.resize(groupWidth), Mux(sweep.busy, sweep.addr, scan.readAddr))
+    // each lane's own copy (kept apart: one register would drive every RAM of the store)
+    val addr = RegNext(Mux(rescan.busy, rescan.group.resize(groupWidth), Mux(sweep.busy, sweep.addr, scan.readAddr)))
+    addr.addAttribute("preserve")
     val entry = RegNext(lane.store.readSync(addr))
     val cross = RegNext(lane.cross.readSync(addr))
   }
 
   // The rescan's data path: the scores read through the cross port, the lowest (first on ties) of them all.
   val rescanMin = new Area {
-    // Registered at every step: the RAM data (its output register), each level of the group's lowest, the running
-    // lowest; no path holds two of them.
-    val scores = reads.map(r => r.cross.asBits.resize(h.scoreWidth).asUInt)
-    val read = Delay(rescan.issuing, 2, init = False)
-    val base = Delay(rescan.group.resize(countWidth) |<< log2Up(P), 2)
-    val first = Delay(rescan.issuing && rescan.group === 0, 2, init = False)
+    // Registered at every step: the RAM data (its output register, then a register beside the comparisons: the
+    // RAMs are far apart), each level of the group's lowest, the running lowest; no path holds two of them.
+    val scores = reads.map(r => RegNext(r.cross.asBits.resize(h.scoreWidth).asUInt))
+    val read = Delay(rescan.issuing, readLatency + 1, init = False)
+    val base = Delay(rescan.group.resize(countWidth) |<< log2Up(P), readLatency + 1)
+    val first = Delay(rescan.issuing && rescan.group === 0, readLatency + 1, init = False)
     // the group's lowest score, the first lane on ties, a register after every level of comparisons
     def lower(a: (UInt, UInt), b: (UInt, UInt)): (UInt, UInt) = {
       val takeB = b._1 < a._1
@@ -233,8 +258,8 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
 
   // The compare pipeline, stage by stage, side-band data delayed alongside.
   val compare = new Area {
-    val valid0 = Delay(scan.issuing, 2, init = False)
-    val group0 = Delay(scan.readAddr, 2)
+    val valid0 = Delay(scan.issuing, readLatency, init = False)
+    val group0 = Delay(scan.readAddr, readLatency)
     val valid = Delay(valid0, popStages, init = False)
     val group = Delay(group0, popStages)
     case class Lane() extends Bundle {
@@ -260,14 +285,16 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
     }
     case class Best() extends Bundle { val best = Lane(); val second = UInt(distanceWidth bits) }
     def single(l: Lane): Best = { val b = Best(); b.best := l; b.second := none; b }
-    /** best of two (the left, earlier entries, on ties) and the second smallest distance of the union */
+    /** best of two (the left, earlier entries, on ties) and the second smallest distance of the union. As a best is
+      * never above its second, the second is the smaller of the loser and the winner's own second: the three
+      * comparisons are side by side, none waits for another. */
     def merge(a: Best, b: Best): Best = {
       val r = Best()
       val takeB = b.best.distance < a.best.distance
+      val bSecondFirst = b.second < a.best.distance
+      val aSecondFirst = a.second < b.best.distance
       r.best := Mux(takeB, b.best, a.best)
-      val loser = Mux(takeB, a.best.distance, b.best.distance)
-      val s = Mux(a.second < b.second, a.second, b.second)
-      r.second := Mux(loser < s, loser, s)
+      r.second := Mux(takeB, Mux(bSecondFirst, b.second, a.best.distance), Mux(aSecondFirst, a.second, b.best.distance))
       r
     }
     // The lanes' results registered, then a register after every level of the merge tree.
@@ -296,20 +323,25 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
     val ratioSecond = RegNext((p.ratio * a.second).resize(distanceWidth + m.ratioFracBits + 1))
     val ratioOk = !p.ratioTest || ((a.best.distance << m.ratioFracBits).resize(distanceWidth + m.ratioFracBits + 1) < ratioSecond)
     val accepted = done && a.best.distance <= p.hammingThreshold && ratioOk
-    val mark = accepted && p.crossCheck && a.best.wins
-    val emit = accepted && !p.crossCheck
     when(done || emptyDone) { scan.busy := False }
-    val markLane = a.best.index.resize(log2Up(P) max 1)
-    val markAddr = groupOf(a.best.index, groupWidth)
-    val markValue = Cross(); markValue.distance := a.best.distance; markValue.mutual := True
-    markValue.liveX := scan.live.x; markValue.liveY := scan.live.y
+    // The decision registered: the mark's write and the correspondence's push leave a clock later (the next
+    // feature's scan reads nothing for several clocks, and the live position stays until it starts).
+    val mark = RegNext(accepted && p.crossCheck && a.best.wins) init False
+    val emit = RegNext(accepted && !p.crossCheck) init False
+    val markLane = RegNext(a.best.index.resize(log2Up(P) max 1))
+    val markAddr = RegNext(groupOf(a.best.index, groupWidth))
+    val markValue = Cross()
+    markValue.distance := RegNext(a.best.distance)
+    markValue.mutual := True
+    markValue.liveX := scan.live.x
+    markValue.liveY := scan.live.y
   }
 
-  // Sweep results, two clocks after the read.
+  // Sweep results, `readLatency` clocks after the read.
   val swept = new Area {
-    val valid = Delay(sweep.reading, 2, init = False)
-    val lane = Delay(sweep.lane, 2)
-    val addr = Delay(sweep.addr, 2)
+    val valid = Delay(sweep.reading, readLatency, init = False)
+    val lane = Delay(sweep.lane, readLatency)
+    val addr = Delay(sweep.addr, readLatency)
     val cross = pick(reads.map(_.cross), lane)
     val entry = pick(reads.map(_.entry), lane)
     val emit = valid && cross.mutual && frame.params.crossCheck
@@ -322,27 +354,35 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
     def here(sel: UInt): Bool = if (P == 1) True else sel === l
     val loadHere = load.write && here(load.lane)
     lane.store.write(RegNext(load.addr), RegNext(load.entry), RegNext(loadHere) init False)
+    // the score word a clock later than the entry, its decision registered before the selection below (the rescan
+    // that reads it starts later still)
+    val scoreHere = RegNext(loadHere) init False
+    val scoreAddr = RegNext(load.addr)
+    val scoreWord = Cross()
+    scoreWord.assignFromBits(RegNext(item.score).asBits.resize(scoreWord.getBitsWidth))
     val c = compare.results(l)
     val markHere = decide.mark && here(decide.markLane)
     val clearHere = swept.valid && here(swept.lane)
-    val scoreWord = Cross()
-    scoreWord.assignFromBits(item.score.asBits.resize(scoreWord.getBitsWidth))
-    val address = Mux(loadHere, load.addr, Mux(markHere, decide.markAddr, Mux(clearHere, swept.addr,
+    val address = Mux(scoreHere, scoreAddr, Mux(markHere, decide.markAddr, Mux(clearHere, swept.addr,
       Mux(keyEnd.busy, keyEnd.group.resize(groupWidth), compare.group))))
-    val data = Mux(loadHere, scoreWord, Mux(clearHere || keyEnd.busy, clearedCross, Mux(markHere, decide.markValue, c.update)))
-    val enable = loadHere || markHere || clearHere || keyEnd.busy || c.writeUpdate
+    val data = Mux(scoreHere, scoreWord, Mux(clearHere || keyEnd.busy, clearedCross, Mux(markHere, decide.markValue, c.update)))
+    val enable = scoreHere || markHere || clearHere || keyEnd.busy || c.writeUpdate
     lane.cross.write(RegNext(address), RegNext(data), RegNext(enable) init False)
   }
 
-  item.ready := !scan.busy && !sweep.busy && !rescan.busy && !rescan.starting && !keyEnd.busy && paced.itemRoom
+  item.ready := !scan.busy && !sweep.busy && !sweep.draining && !rescan.busy && !rescan.starting && !keyEnd.busy && paced.itemRoom
 
+  // The correspondence registered on its way into the FIFO (the lanes' RAMs are far from it): a scan's is pushed a
+  // clock after its decision, the sweep's `pushLatency` clocks after its read.
+  val beat = CorrespondenceBeat(f)
+  beat.liveX := Mux(swept.emit, swept.cross.liveX, scan.live.x)
+  beat.liveY := Mux(swept.emit, swept.cross.liveY, scan.live.y)
+  beat.keyX := Mux(swept.emit, swept.entry.x, compare.acc.best.keyX)
+  beat.keyY := Mux(swept.emit, swept.entry.y, compare.acc.best.keyY)
+  beat.distance := Mux(swept.emit, swept.cross.distance, compare.acc.best.distance)
   val push = output.io.push
-  push.valid := decide.emit || swept.emit
-  push.liveX := Mux(swept.emit, swept.cross.liveX, scan.live.x)
-  push.liveY := Mux(swept.emit, swept.cross.liveY, scan.live.y)
-  push.keyX := Mux(swept.emit, swept.entry.x, compare.acc.best.keyX)
-  push.keyY := Mux(swept.emit, swept.entry.y, compare.acc.best.keyY)
-  push.distance := Mux(swept.emit, swept.cross.distance, compare.acc.best.distance)
+  push.valid := RegNext(decide.emit || swept.emit) init False
+  push.payload := RegNext(beat)
   io.correspondences << output.io.pop
 
   val counters = new Area {
