@@ -6,8 +6,9 @@ import spinal.lib.misc.pipeline._
 
 /** The orientation bin of (m10, m01) without a divider, as `orb.model.OrbModel.angleBin`: fold into the first
   * octant (signs, swap so that b <= a), count the bin boundaries below the angle with a binary search, one
-  * comparison b 2^F >= a T_j per step, unfold. One corner per clock; latency `3 steps + 2`: a step looks up the
-  * tangent it tries (into a register), multiplies (plain registers on both sides of the product) and compares. */
+  * comparison b 2^F >= a T_j per step, unfold. One corner per clock; latency `4 steps + 3`: a step looks up the
+  * tangent it tries (into a register), multiplies a's two parts by it in two multiplier blocks (plain registers on
+  * both sides of each product), adds the partial products and compares. */
 class AngleSearch(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) extends Component {
   val io = new Bundle {
     val input = slave Flow (OrientedCorner(f, h, d))
@@ -19,39 +20,49 @@ class AngleSearch(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) exten
   val steps = Iterator.iterate(1)(_ * 2).takeWhile(_ <= m).toSeq.reverse // m, m/2, .., 1 when m is a power of 2
   val tWidth = log2Up(tangents.max + 1)
   val countWidth = log2Up(m + 1)
-  val nodes = Array.fill(3 * steps.size + 3)(Node())
+  /** a = hi 2^L + lo: lo fills a multiplier's operand, and so does the tangent */
+  val loWidth = Arith.multiplierWidth
+  require(tWidth <= Arith.multiplierWidth && momentWidth - loWidth <= Arith.multiplierWidth)
+  val nodes = Array.fill(4 * steps.size + 4)(Node())
   val links = (0 until nodes.size - 1).map(i => StageLink(nodes(i), nodes(i + 1)))
 
   val IN = Payload(OrientedCorner(f, h, d))
   nodes(0).driveFrom(io.input)((n, p) => n(IN) := p)
 
+  // the magnitudes at node 0, their comparison and the swap at node 1
   val fold = new Area {
-    val n = nodes(0)
-    val ax = n(IN).m10.abs; val ay = n(IN).m01.abs
+    val AX = nodes(0).insert(nodes(0)(IN).m10.abs)
+    val AY = nodes(0).insert(nodes(0)(IN).m01.abs)
+    val n = nodes(1)
+    val ax = n(AX)
+    val ay = n(AY)
     val swap = ay > ax
     val SWAP = n.insert(swap)
     val A = n.insert(Mux(swap, ay, ax))
     val B = n.insert(Mux(swap, ax, ay))
   }
-  // Step i tries to add `step` to the count of the steps before it: the T_j it tries at node 3i + 1, the product of
-  // the registered a and T_j at 3i + 2, the comparison with the registered product at 3i + 3.
+  // Step i tries to add `step` to the count of the steps before it: the T_j it tries at node 4i + 2, the partial
+  // products of the registered a and T_j at 4i + 3, their sum at 4i + 4, the comparison at 4i + 5.
   val counts = scala.collection.mutable.ArrayBuffer[Payload[UInt]]()
   for ((step, i) <- steps.zipWithIndex) {
-    val n = nodes(3 * i + 1)
+    val n = nodes(4 * i + 2)
     val before = if (i == 0) U(0, countWidth bits) else n(counts(i - 1))
     val BEFORE = n.insert(before)
     val idx = (before +^ (step - 1)).resize(countWidth + 1)
     val table = Vec(tangents.map(t => U(t, tWidth bits)))
     val TRY = n.insert(idx < m && n(fold.A) =/= 0)
     val TANGENT = n.insert(table(idx.resize(log2Up(m max 2))))
-    val p = nodes(3 * i + 2)
-    val PRODUCT = p.insert(p(fold.A) * p(TANGENT))
-    val c = nodes(3 * i + 3)
+    val p = nodes(4 * i + 3)
+    val LO = p.insert(p(fold.A)(loWidth - 1 downto 0) * p(TANGENT))
+    val HI = p.insert(p(fold.A)(momentWidth - 1 downto loWidth) * p(TANGENT))
+    val s = nodes(4 * i + 4)
+    val PRODUCT = s.insert((s(HI) << loWidth).resize(momentWidth + tWidth) + s(LO).resize(momentWidth + tWidth))
+    val c = nodes(4 * i + 5)
     val take = c(TRY) && ((c(fold.B).resize(momentWidth + d.tanFracBits) |<< d.tanFracBits) >= c(PRODUCT))
     counts += c.insert(Mux(take, c(BEFORE) + step, c(BEFORE)))
   }
   val unfold = new Area {
-    val at = nodes(3 * steps.size + 1)
+    val at = nodes(4 * steps.size + 2)
     val count = at(counts.last)
     val q = Mux(at(fold.SWAP), U(2 * m, countWidth + 1 bits) - count, count.resize(countWidth + 1))
     val n = d.angleBins

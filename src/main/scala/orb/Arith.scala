@@ -5,6 +5,9 @@ import spinal.lib._
 
 /** Small fixed-point helpers shared by the stages. */
 object Arith {
+  /** operand width of the target's multiplier blocks (18 x 18 on Cyclone II and on the ECP5 proxy, unsigned too) */
+  val multiplierWidth: Int = 18
+
   /** v * k for a constant k >= 0, as a sum of shifted copies of v (no multiplier block); `width` bits out. */
   def constMul(v: UInt, k: Int, width: Int): UInt = {
     require(k >= 0)

@@ -83,12 +83,10 @@ class OrientationUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, c
     val frameNow = Mux(frameStart, frame + 1, frame)
     when(valid && x === 0) { rowCount := rowCount + 1 }
     when(frameStart) { frame := frameNow }
-    def index(u: SInt): UInt = {
+    /** the disc height of column u, one-hot over `heights` (a slot selects its sums with an AND-OR, no mux tree) */
+    def heightOf(u: SInt): Bits = {
       val a = u.abs
-      val sel = UInt(log2Up(heights.size) bits)
-      sel := 0
-      for (k <- 0 to R) when(a === k) { sel := heights.indexOf(vmax(k)) }
-      sel
+      Vec(heights.map(dh => (0 to R).filter(k => vmax(k) == dh).map(k => a === k).reduce(_ || _))).asBits
     }
   }
 
@@ -121,12 +119,23 @@ class OrientationUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, c
     w.startY := c.y + R
     w
   }.m2sPipe(flush = sums.frameStart)
-  val startHere = sums.valid && head.valid && sums.y === head.startY && sums.x === head.startX
+  // The head against the stream position, compared a clock ahead (the position `sums` shows next) into registers. A
+  // head loaded in the last clock has no comparisons of its own yet and waits a clock: its start is at least two
+  // pixels after the head before it (the 3x3 suppression), and corners reach the queue rows before their start.
+  val ahead = new Area {
+    val x = Delay(io.columns.pixel.x, sums.latency - 1)
+    val y = Delay(io.columns.pixel.y, sums.latency - 1)
+    val at = RegNext(y === head.startY && x === head.startX) init False
+    val past = RegNext(y > head.startY || (y === head.startY && x > head.startX)) init False
+    /** the head is the one the comparisons were made with */
+    val compared = RegNext(head.valid && !head.ready) init False
+  }
+  val startHere = sums.valid && head.valid && ahead.compared && ahead.at
   val slots = for (s <- 0 until d.orientationSlots) yield new Area {
     val busy = Reg(Bool()) init False
     val corner = Reg(HarrisCorner(f, h))
     val u = Reg(SInt(6 bits))
-    val height = Reg(UInt(log2Up(sums.heights.size) bits)) // the disc height of column u, looked up a clock early
+    val height = Reg(Bits(sums.heights.size bits)) // the disc height of column u, one-hot, looked up a clock early
     val acc1 = Reg(UInt(acc1Width bits))
     val acc2 = Reg(UInt(acc2Width bits))
     val m01 = Reg(SInt(momentWidth bits))
@@ -141,18 +150,19 @@ class OrientationUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, c
   val slotDrop = startHere && !free.orR
   val startCorner = RegNextWhen(head.corner, startOk)
   for (i <- slots.indices) starting(i) := startOk && chosen(i)
-  head.ready := startHere || (head.valid && sums.valid && (sums.y > head.startY || (sums.y === head.startY && sums.x > head.startX)))
+  head.ready := startHere || (head.valid && sums.valid && ahead.compared && ahead.past)
   val staleDrop = head.fire && !startHere // its start column went by (a frame ended early, or the queue was late)
   // A new frame: what is still queued or accumulating belongs to a frame that ended before its rows came.
   queue.io.flush := sums.frameStart
   // (a corner pushed on that very clock is lost with the flush, so it counts too; the slots are cleared a clock
   // later, with the beat, and counted then)
-  val flushDrops = Mux(sums.frameStart, queue.io.occupancy.resize(f.counterWidth) + U(io.corners.valid).resize(f.counterWidth) +
-    U(head.valid).resize(f.counterWidth),
-    U(0, f.counterWidth bits)) + Mux(beat.frameStart, CountOne(slots.zip(starting).map { case (sl, st) => sl.busy || st }).resize(f.counterWidth),
-    U(0, f.counterWidth bits))
+  /** the most corners one clock can drop: the queue and its head flushed, the one pushed then, the slots */
+  val dropWidth = log2Up(d.cornerQueueDepth + 2 + d.orientationSlots + 4 + 1)
+  val queueFlushed = queue.io.occupancy.resize(dropWidth) + U(io.corners.valid).resize(dropWidth) + U(head.valid).resize(dropWidth)
+  val slotsFlushed = CountOne(slots.zip(starting).map { case (sl, st) => sl.busy || st }).resize(dropWidth)
+  val flushDrops = Mux(sums.frameStart, queueFlushed, U(0, dropWidth bits)) + Mux(beat.frameStart, slotsFlushed, U(0, dropWidth bits))
 
-  val heightOfFirst = sums.heights.indexOf(vmax(R))
+  val heightOfFirst = B(BigInt(1) << sums.heights.indexOf(vmax(R)), sums.heights.size bits)
   // Each slot picks its column's sums (by the column's disc height) into registers of its own, then accumulates them a
   // clock later: the wide sums fan out to the slots' selections, and no adder waits for a selection.
   case class Pick() extends Bundle {
@@ -162,8 +172,12 @@ class OrientationUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, c
   }
   val accumulate = for ((slot, i) <- slots.zipWithIndex) yield new Area {
     val first = starting(i)
-    val u = Mux(first, S(-R, 6 bits), slot.u)
-    val height = Mux(first, U(heightOfFirst, slot.height.getWidth bits), slot.height)
+    // the first column's position and height are set as the slot is chosen, a clock before its first column
+    when(startOk && chosen(i)) {
+      slot.u := -R
+      slot.height := heightOfFirst
+    }
+    val u = slot.u
     val last = u === R
     val advancing = beat.valid && (slot.busy || first)
     when(first) { slot.corner := startCorner }
@@ -171,7 +185,7 @@ class OrientationUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, c
       slot.busy := False
     } elsewhen (advancing) {
       slot.u := u + 1
-      slot.height := sums.index(u + 1)
+      slot.height := sums.heightOf(u + 1)
       slot.busy := !last
     }
     val pick = Pick()
@@ -180,8 +194,8 @@ class OrientationUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, c
     pick.last := last
     pick.active := beat.active
     pick.frameStart := beat.frameStart
-    pick.t := beat.T(height)
-    pick.tv := beat.TV(height)
+    pick.t := MuxOH.or(slot.height.asBools, beat.T)
+    pick.tv := MuxOH.or(slot.height.asBools, beat.TV)
     val picked = RegNext(pick)
     picked.valid.init(False)
     val p = picked
@@ -246,9 +260,11 @@ class OrientationUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, c
   io.oriented << bins.io.output
 
   val faultDrop = slots.map(slot => slot.busy && slot.u === R).orR && beat.valid && !beat.frameStart && !beat.active
+  // the clock's drops summed into a register of their own, then counted (the counter lags a clock)
+  val dropsNow = RegNext(U(queueDrop).resize(dropWidth) + U(slotDrop).resize(dropWidth) + U(staleDrop).resize(dropWidth) +
+    U(faultDrop).resize(dropWidth) + flushDrops) init 0
   val drops = Reg(UInt(f.counterWidth bits)) init 0
-  drops := drops + U(queueDrop).resize(f.counterWidth) + U(slotDrop).resize(f.counterWidth) +
-    U(staleDrop).resize(f.counterWidth) + U(faultDrop).resize(f.counterWidth) + flushDrops
+  drops := drops + dropsNow.resize(f.counterWidth)
   io.dropped := drops
 }
 
