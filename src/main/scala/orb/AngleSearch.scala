@@ -28,6 +28,19 @@ class AngleSearch(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) exten
 
   val IN = Payload(OrientedCorner(f, h, d))
   nodes(0).driveFrom(io.input)((n, p) => n(IN) := p)
+  // Beside the search travel the corner and its tags, not its moments: they are rebuilt at the end from the
+  // magnitudes the search carries anyway and their signs.
+  val beside = new Area {
+    val n = nodes(0)
+    val CORNER = n.insert(n(IN).corner)
+    val START_ROW = n.insert(n(IN).startRow)
+    val FRAME_TAG = n.insert(n(IN).frameTag)
+    val KEYFRAME = n.insert(n(IN).keyframe)
+    val FRAME_END = n.insert(n(IN).frameEnd)
+    val END = n.insert(n(IN).end)
+    val M10_NEGATIVE = n.insert(n(IN).m10.sign)
+    val M01_NEGATIVE = n.insert(n(IN).m01.sign)
+  }
 
   // the magnitudes at node 0, their comparison and the swap at node 1
   val fold = new Area {
@@ -67,23 +80,31 @@ class AngleSearch(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) exten
     val q = Mux(at(fold.SWAP), U(2 * m, countWidth + 1 bits) - count, count.resize(countWidth + 1))
     val n = d.angleBins
     val bin = UInt(d.binWidth + 1 bits)
-    val right = !at(IN).m10.sign; val up = !at(IN).m01.sign
+    val right = !at(beside.M10_NEGATIVE)
+    val up = !at(beside.M01_NEGATIVE)
     when(right && up) { bin := q.resized }
       .elsewhen(!right && up) { bin := (U(n / 2, d.binWidth + 1 bits) - q).resized }
       .elsewhen(!right && !up) { bin := (U(n / 2, d.binWidth + 1 bits) + q).resized }
       .otherwise { bin := Mux(q === 0, U(0, d.binWidth + 1 bits), (U(n, d.binWidth + 1 bits) - q).resized) }
     val BIN = at.insert(bin.resize(d.binWidth))
+    // |m10| is a, or b after a swap; |m01| the other
+    def moment(magnitude: UInt, negative: Bool): SInt = {
+      val m = magnitude.intoSInt.resize(momentWidth)
+      Mux(negative, -m, m)
+    }
+    val M10 = at.insert(moment(Mux(at(fold.SWAP), at(fold.B), at(fold.A)), at(beside.M10_NEGATIVE)))
+    val M01 = at.insert(moment(Mux(at(fold.SWAP), at(fold.A), at(fold.B)), at(beside.M01_NEGATIVE)))
   }
   val out = nodes.last
   io.output.valid := out.isValid
-  io.output.corner := out(IN).corner
-  io.output.m10 := out(IN).m10
-  io.output.m01 := out(IN).m01
-  io.output.startRow := out(IN).startRow
-  io.output.frameTag := out(IN).frameTag
-  io.output.keyframe := out(IN).keyframe
-  io.output.frameEnd := out(IN).frameEnd
-  io.output.end := out(IN).end
+  io.output.corner := out(beside.CORNER)
+  io.output.m10 := out(unfold.M10)
+  io.output.m01 := out(unfold.M01)
+  io.output.startRow := out(beside.START_ROW)
+  io.output.frameTag := out(beside.FRAME_TAG)
+  io.output.keyframe := out(beside.KEYFRAME)
+  io.output.frameEnd := out(beside.FRAME_END)
+  io.output.end := out(beside.END)
   io.output.bin := out(unfold.BIN)
   Builder(links)
 }

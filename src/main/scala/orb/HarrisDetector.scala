@@ -10,12 +10,12 @@ import Arith._
   * buffer's RAM, across the chip), puts a register after every adder tree and multiplier, and gives the gradients
   * two registers before the products (the second becomes the multiplier block's input register, the first stays
   * beside the Sobel adders, so no adder drives the long wires to the multipliers). */
-case class HarrisStages(sobel: Int = 1, sobelDiff: Int = 2, products: Int = 4, columnPre: Int = 5, columnSum: Int = 6,
-                        rowPre: Int = 7, rowMid: Int = 8, rowSum: Int = 9, trace: Int = 10, multiply: Int = 11,
-                        kTrace: Int = 12, response: Int = 13, suppressRead: Int = 14, segmentCompare: Int = 1,
-                        segmentArc: Int = 2) {
-  private val order = Seq(sobel, sobelDiff, products, columnPre, columnSum, rowPre, rowMid, rowSum, trace, multiply, kTrace,
-    response, suppressRead)
+case class HarrisStages(sobel: Int = 1, sobelDiff: Int = 2, products: Int = 4, columnPre: Int = 5, columnMid: Int = 6,
+                        columnSum: Int = 7, rowPre: Int = 8, rowMid: Int = 9, rowSum: Int = 10, trace: Int = 11,
+                        multiply: Int = 12, kTrace: Int = 13, response: Int = 14, suppressRead: Int = 15,
+                        segmentCompare: Int = 1, segmentArc: Int = 2) {
+  private val order = Seq(sobel, sobelDiff, products, columnPre, columnMid, columnSum, rowPre, rowMid, rowSum, trace,
+    multiply, kTrace, response, suppressRead)
   require(order.head >= 0 && order.zip(order.tail).forall { case (a, b) => b > a },
     "each step needs the previous one's registered result: node indices must strictly increase")
   require(segmentCompare >= 0 && segmentArc > segmentCompare && segmentArc <= response,
@@ -127,9 +127,12 @@ class HarrisDetector(f: FrameConfig, h: HarrisConfig, columnRows: Int, stages: H
   // Vertical pass of the window: exact sums over the 7 rows of one column.
   val column = new Area {
     val w = h.columnCrossWidth
-    val VXX = at(stages.columnSum).insert(binomial7(at(stages.columnPre)(products.XX), at(stages.columnPre), at(stages.columnSum), w))
-    val VYY = at(stages.columnSum).insert(binomial7(at(stages.columnPre)(products.YY), at(stages.columnPre), at(stages.columnSum), w))
-    val VXY = at(stages.columnSum).insert(binomial7(at(stages.columnPre)(products.XY), at(stages.columnPre), at(stages.columnSum), w))
+    val VXX = at(stages.columnSum).insert(binomial7(at(stages.columnPre)(products.XX), at(stages.columnPre), at(stages.columnSum), w,
+      Some(at(stages.columnMid))))
+    val VYY = at(stages.columnSum).insert(binomial7(at(stages.columnPre)(products.YY), at(stages.columnPre), at(stages.columnSum), w,
+      Some(at(stages.columnMid))))
+    val VXY = at(stages.columnSum).insert(binomial7(at(stages.columnPre)(products.XY), at(stages.columnPre), at(stages.columnSum), w,
+      Some(at(stages.columnMid))))
   }
 
   // Horizontal pass over the last 7 column sums (they advance with valid pixels only), then the window shift.

@@ -75,7 +75,8 @@ class OrientationUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, c
     val keyframe = Delay(io.columns.pixel.keyframe, latency)
     val ends = Delay(io.columns.pixel.ends, latency)
     val end = Delay(io.columns.pixel.end, latency)
-    val frameStart = valid && x === 0 && y === 0
+    // compared at the input and delayed with the beat: a register, not a comparison, where it is used
+    val frameStart = Delay(io.columns.valid && io.columns.pixel.x === 0 && io.columns.pixel.y === 0, latency, init = False)
     // Rows and frames counted since reset, the same way the descriptor unit counts them on its stream.
     val rowCount = Reg(UInt(rowCountWidth bits)) init 0
     val frame = Reg(UInt(frameTagWidth bits)) init 0
@@ -84,9 +85,15 @@ class OrientationUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, c
     when(valid && x === 0) { rowCount := rowCount + 1 }
     when(frameStart) { frame := frameNow }
     /** the disc height of column u, one-hot over `heights` (a slot selects its sums with an AND-OR, no mux tree) */
-    def heightOf(u: SInt): Bits = {
-      val a = u.abs
-      Vec(heights.map(dh => (0 to R).filter(k => vmax(k) == dh).map(k => a === k).reduce(_ || _))).asBits
+    def heightOnehot(k: Int): Bits = B(BigInt(1) << heights.indexOf(vmax(k.abs)), heights.size bits)
+    /** the disc height of the column after u, one-hot over `heights` (a slot selects its sums with an AND-OR, no
+      * mux tree), looked up in a table indexed by u's bits (no adder, no comparison) */
+    def heightAfter(u: SInt): Bits = {
+      val table = Vec((0 until (1 << u.getWidth)).map { bits =>
+        val v = if (bits >= (1 << (u.getWidth - 1))) bits - (1 << u.getWidth) else bits
+        if (v >= -R && v < R) heightOnehot(v + 1) else B(0, heights.size bits)
+      })
+      table(u.asUInt)
     }
   }
 
@@ -162,7 +169,7 @@ class OrientationUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, c
   val slotsFlushed = CountOne(slots.zip(starting).map { case (sl, st) => sl.busy || st }).resize(dropWidth)
   val flushDrops = Mux(sums.frameStart, queueFlushed, U(0, dropWidth bits)) + Mux(beat.frameStart, slotsFlushed, U(0, dropWidth bits))
 
-  val heightOfFirst = B(BigInt(1) << sums.heights.indexOf(vmax(R)), sums.heights.size bits)
+  val heightOfFirst = sums.heightOnehot(-R)
   // Each slot picks its column's sums (by the column's disc height) into registers of its own, then accumulates them a
   // clock later: the wide sums fan out to the slots' selections, and no adder waits for a selection.
   case class Pick() extends Bundle {
@@ -172,8 +179,9 @@ class OrientationUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, c
   }
   val accumulate = for ((slot, i) <- slots.zipWithIndex) yield new Area {
     val first = starting(i)
-    // the first column's position and height are set as the slot is chosen, a clock before its first column
-    when(startOk && chosen(i)) {
+    // An idle slot holds its first column's position and height (an enable from its own register, not from the
+    // start decision); the first column's advance below takes over.
+    when(!slot.busy) {
       slot.u := -R
       slot.height := heightOfFirst
     }
@@ -185,7 +193,7 @@ class OrientationUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, c
       slot.busy := False
     } elsewhen (advancing) {
       slot.u := u + 1
-      slot.height := sums.heightOf(u + 1)
+      slot.height := sums.heightAfter(u)
       slot.busy := !last
     }
     val pick = Pick()
@@ -226,23 +234,35 @@ class OrientationUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, c
     val a2 = UInt(acc2Width bits)
   }
   val emits = accumulate.map(_.emit)
-  // At most one slot finishes per pixel (finishing corners are at distinct x of one row): a one-hot selection.
-  val patch = OhMux.or(emits, slots.map { slot =>
-    val p = Patch(); p.corner := slot.corner; p.m01 := slot.m01; p.a1 := slot.acc1; p.a2 := slot.acc2; p
-  })
+  val patches = slots.map { slot =>
+    val p = Patch()
+    p.corner := slot.corner
+    p.m01 := slot.m01
+    p.a1 := slot.acc1
+    p.a2 := slot.acc2
+    p
+  }
+  // At most one slot finishes per pixel (finishing corners are at distinct x of one row): a one-hot selection, in
+  // two registered levels (the slots lie apart): each pair of slots, then the pairs.
+  val pairs = emits.indices.grouped(2).toIndexedSeq.map { k =>
+    val sel = k.map(emits).toIndexedSeq
+    (RegNext(sel.orR) init False, RegNext(OhMux.or(sel, k.map(patches))))
+  }
+  val emitted = pairs.map(_._1).orR
+  val patch = OhMux.or(pairs.map(_._1), pairs.map(_._2))
   val beatD = new Area {
-    // The beat of the last column (two clocks on, with its patch), in row cy + R; the descriptor's 37 smoothed rows
-    // are complete when row cy + 22 starts.
-    val startRow = RegNext(RegNext(beat.rowNow + (OrbDescriptorConfig.startRowOffset - R)))
-    val frameTag = RegNext(RegNext(beat.frameNow))
-    val keyframe = RegNext(RegNext(beat.keyframe))
-    val ends = RegNext(RegNext(beat.valid && beat.ends) init False) init False
-    val end = RegNext(RegNext(beat.end))
+    // The beat of the last column (three clocks on, with its patch), in row cy + R; the descriptor's 37 smoothed
+    // rows are complete when row cy + 22 starts.
+    val startRow = Delay(beat.rowNow + (OrbDescriptorConfig.startRowOffset - R), 3)
+    val frameTag = Delay(beat.frameNow, 3)
+    val keyframe = Delay(beat.keyframe, 3)
+    val ends = Delay(beat.valid && beat.ends, 3, init = False)
+    val end = Delay(beat.end, 3)
   }
   // A frame's end follows its corners: no corner of a good frame finishes on its last pixel (the last corners
   // finish 7 rows earlier), and on a fault no corner finishes (it would be dropped).
   val finishing = Flow(Finished())
-  finishing.valid := emits.orR || beatD.ends
+  finishing.valid := emitted || beatD.ends
   val o = finishing.oriented
   o.corner := patch.corner; o.m01 := patch.m01
   o.m10.assignDontCare(); o.bin.assignDontCare()
