@@ -77,6 +77,16 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
     val updated = Vec.fill(k)(Entry())
     // the detector's corner registered here first: its cell selects a list across a wide multiplexer
     val arriving = io.corners.stage()
+    // ... by a one-hot select over (bank, cell), decoded before that register, one copy per list place (kept apart):
+    // each drives an AND-OR of its own place in every list, not a mux tree from a few address bits
+    val lists = for (bank <- 0 until 2; cell <- 0 until cells) yield (bank, cell)
+    val selects = (0 until k).map { _ =>
+      val bankIn = io.corners.y(b.bandShift downto b.bandShift)
+      val cellIn = io.corners.x(b.cellShift, cellWidth bits)
+      val s = RegNext(Vec(lists.map { case (bank, cell) => bankIn === bank && cellIn === cell }))
+      s.addAttribute("preserve")
+      s
+    }
     val read = new Area {
       val c = arriving.stage()
       val bank = Reg(UInt(1 bits))
@@ -100,7 +110,9 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
     when(arriving.valid) {
       read.bank := bankNow
       read.cellIndex := cellNow
-      read.list := Mux(sameCell, updated, banks(bankNow)(cellNow))
+      for (i <- 0 until k) {
+        read.list(i) := Mux(sameCell, updated(i), MuxOH.or(selects(i), lists.map { case (bank, cell) => banks(bank)(cell)(i) }))
+      }
     }
     val fresh = Entry()
     fresh.valid := True
@@ -282,8 +294,12 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
     val issue = Reg(UInt(levelWidth bits)) init levels - 1
     val above = Reg(UInt(countWidth + 1 bits)) init 0
     val found = Reg(Bool()) init False
-    val leftover = CountOne(banks.flatMap(_.flatMap(_.map(_.valid))))
-    val dropped = RegNext(fire ? leftover.resize(f.counterWidth) | U(0, f.counterWidth bits)) init 0
+    // the winners left in the banks when the frame end fires, counted in two registered steps (a list's count,
+    // then their sum) and so reported two clocks later
+    val listCounts = RegNext(Vec(banks.flatMap(bank => bank.map(list => CountOne(list.map(_.valid).toSeq)))))
+    val fired = RegNext(fire) init False
+    val leftover = listCounts.map(_.resize(f.counterWidth)).reduceBalancedTree(_ + _)
+    val dropped = RegNext(fired ? leftover | U(0, f.counterWidth bits)) init 0
     when(fire) {
       for (bank <- banks; cell <- bank; e <- cell) e.valid := False
       phase := Phase.scan
