@@ -168,7 +168,7 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
       lists := banks(bank)
       for (list <- banks(bank); e <- list) e.valid := False
     }
-    // The winner that comes first in raster order (row offset, then cell, then column), in registered steps
+    // The winner that comes first in raster order (row offset, then cell, then column; without its score), in registered steps
     // within the pace, one comparison each: pairs of a cell's entries, the cell's first, pairs of cells, the band's
     // first; at the next step it leaves and its entry is emptied, in time for the next winner's first step (the
     // first step is the clock after the copy).
@@ -177,7 +177,6 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
       val key = UInt(b.bandShift + log2Up(cells max 2) + b.cellShift bits)
       val cell = UInt(log2Up(cells max 2) bits)
       val index = UInt(log2Up(k max 2) bits)
-      val score = UInt(h.scoreWidth bits)
     }
     def earlier(l: Candidate, r: Candidate): Candidate = Mux(l.valid && (!r.valid || l.key <= r.key), l, r)
     /** the first of `cs`, a register after every level of comparisons */
@@ -190,7 +189,6 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
         cand.key := e.yOffset @@ U(cell, log2Up(cells max 2) bits) @@ e.xOffset
         cand.cell := cell
         cand.index := i
-        cand.score := e.score
         cand
       }
     }
@@ -202,7 +200,9 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
     out.valid := now && first.valid
     out.x := ((first.key.resize(log2Up(cells max 2) + b.cellShift)).resize(f.coordWidth))
     out.y := bandY + first.key(first.key.getWidth - 1 downto first.key.getWidth - b.bandShift).resize(f.coordWidth)
-    out.score := first.score
+    // the score is not carried through the choice (narrower selections): picked by the winner's place, which still
+    // holds it in the clock its entry is emptied
+    out.score := lists(first.cell)(first.index).score
     when(busy) {
       pace := Mux(pace === FeatureBudget.winnerClocks - 1, U(0, pace.getWidth bits), pace + 1)
     }
@@ -238,11 +238,22 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
     ram.write(writeAddress, writeData, write)
   }
 
-  /** The leading one's position and the `levelFracBits` bits after it (`BudgetModel.level`). */
-  def levelOf(score: UInt): UInt = {
-    val lead = UInt(log2Up(h.scoreWidth) bits)
-    lead := 0
-    for (i <- 0 until h.scoreWidth) when(score(i)) { lead := i }
+  /** The leading one's position of a score (`BudgetModel.level`, first step). */
+  def leadOf(score: UInt): UInt = {
+    /** (any bit set, the highest set bit's position) of `bits`, as a balanced tree of halves */
+    def highest(bits: Seq[Bool]): (Bool, UInt) =
+      if (bits.size == 1) (bits.head, U(0, 0 bits))
+      else {
+        val half = 1 << (log2Up(bits.size) - 1)
+        val (loAny, lo) = highest(bits.take(half))
+        val (hiAny, hi) = highest(bits.drop(half))
+        val width = log2Up(bits.size)
+        (loAny || hiAny, Mux(hiAny, True ## hi.resize(width - 1), False ## lo.resize(width - 1)).asUInt)
+      }
+    highest(score.asBools.toSeq)._2.resize(log2Up(h.scoreWidth))
+  }
+  /** The leading one's position and the `levelFracBits` bits after it (`BudgetModel.level`), from the position. */
+  def levelOf(score: UInt, lead: UInt): UInt = {
     val fb = b.levelFracBits
     if (fb == 0) lead.resize(levelWidth)
     else {
@@ -251,21 +262,30 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
     }
   }
 
-  // Winners, a clock after they leave the bank (with their level), against the cut and the target.
+  // Winners, three clocks after they leave the bank (their score picked in the first, the leading one's position
+  // in the second, the level in the third), against the cut and the target. The comparisons with the counts are registered a clock ahead: winners
+  // are `FeatureBudget.winnerClocks` apart, so the counts have settled long before the next one.
   val decide = new Area {
-    val winner = emission.out.stage()
-    val level = RegNext(levelOf(emission.out.score))
+    val leading = emission.out.stage()
+    val scored = leading.stage()
+    val lead = RegNext(leadOf(leading.score))
+    val winner = scored.stage()
+    val level = RegNext(levelOf(scored.score, lead))
     val target = io.target
-    val inCut = !cut.history || level > cut.level || (level === cut.level && cut.atCut < cut.remainder)
-    val take = winner.valid && cut.taken < target && inCut
+    val room = RegNext(cut.taken < target) init False
+    val roomAtCut = RegNext(cut.atCut < cut.remainder) init False
+    val inCut = !cut.history || level > cut.level || (level === cut.level && roomAtCut)
+    val take = winner.valid && room && inCut
     val deselect = winner.valid && !take
     // the count of the winner's level comes back two clocks later and is written back a clock after that
     val counting = Delay(winner.valid, 2, init = False)
-    val inFlight = winner.valid || RegNext(winner.valid, init = False) || counting
+    val inFlight = leading.valid || scored.valid || winner.valid || RegNext(winner.valid, init = False) || counting
     val countedLevel = Delay(level, 2)
     when(take) {
       cut.taken := cut.taken + 1
-      when(cut.history && level === cut.level) { cut.atCut := cut.atCut + 1 }
+      when(cut.history && level === cut.level) {
+        cut.atCut := cut.atCut + 1
+      }
     }
     io.selected.valid := RegNext(take) init False
     io.selected.payload := RegNext(winner.payload)
@@ -292,7 +312,7 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
     val phase = RegInit(Phase.scan)
     val good = Reg(Bool()) init False
     val issue = Reg(UInt(levelWidth bits)) init levels - 1
-    val above = Reg(UInt(countWidth + 1 bits)) init 0
+    val need = Reg(UInt(BudgetConfig.targetWidth + 1 bits)) init 0
     val found = Reg(Bool()) init False
     // the winners left in the banks when the frame end fires, counted in two registered steps (a list's count,
     // then their sum) and so reported two clocks later
@@ -305,7 +325,7 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
       phase := Phase.scan
       good := pendingOk
       issue := levels - 1
-      above := 0
+      need := io.target.resize(need.getWidth)
       found := False
     }
     // a level's count arrives two clocks after its read
@@ -315,14 +335,16 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
     val arrivedLevel = Delay(readLevel, 2)
     val last = arrives && arrivedLevel === 0
     when(phase === Phase.scan && issue =/= 0) { issue := issue - 1 }
-    val total = above + histogram.data
-    when(arrives) {
-      when(good && !found && total >= io.target) {
+    // the target less the winners above the level being read, while the cut is not found (then it is > 0): the
+    // level holds the cut when its count reaches it, with no adder before that comparison
+    val reaches = histogram.data >= need
+    when(arrives && !found) {
+      when(good && reaches) {
         found := True
         cut.level := arrivedLevel
-        cut.remainder := (io.target - above).resize(BudgetConfig.targetWidth)
+        cut.remainder := need.resize(BudgetConfig.targetWidth)
       }
-      above := total.resize(above.getWidth)
+      need := need - histogram.data.resize(need.getWidth)
     }
     when(last) {
       phase := Phase.run
@@ -330,7 +352,7 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
       cut.atCut := 0
       when(good) {
         cut.history := True
-        when(!(found || total >= io.target)) {
+        when(!(found || reaches)) {
           cut.level := 0
           cut.remainder := io.target
         }

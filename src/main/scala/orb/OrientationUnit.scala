@@ -165,9 +165,13 @@ class OrientationUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, c
   // later, with the beat, and counted then)
   /** the most corners one clock can drop: the queue and its head flushed, the one pushed then, the slots */
   val dropWidth = log2Up(d.cornerQueueDepth + 2 + d.orientationSlots + 4 + 1)
-  val queueFlushed = queue.io.occupancy.resize(dropWidth) + U(io.corners.valid).resize(dropWidth) + U(head.valid).resize(dropWidth)
-  val slotsFlushed = CountOne(slots.zip(starting).map { case (sl, st) => sl.busy || st }).resize(dropWidth)
-  val flushDrops = Mux(sums.frameStart, queueFlushed, U(0, dropWidth bits)) + Mux(beat.frameStart, slotsFlushed, U(0, dropWidth bits))
+  // What a frame start flushes is registered first (the queue's count, the slots' busy flags) and counted in the
+  // clocks after (see `dropsNow`): the slots lie apart, and their count is no path of the frame start's clock.
+  val queueFlushed = RegNext(Mux(sums.frameStart,
+    queue.io.occupancy.resize(dropWidth) + U(io.corners.valid).resize(dropWidth) + U(head.valid).resize(dropWidth),
+    U(0, dropWidth bits))) init 0
+  val slotsFlushed = RegNext(Mux(beat.frameStart, Vec(slots.zip(starting).map { case (sl, st) => sl.busy || st }).asBits,
+    B(0, slots.size bits))) init 0
 
   val heightOfFirst = sums.heightOnehot(-R)
   // Each slot picks its column's sums (by the column's disc height) into registers of its own, then accumulates them a
@@ -280,9 +284,10 @@ class OrientationUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, c
   io.oriented << bins.io.output
 
   val faultDrop = slots.map(slot => slot.busy && slot.u === R).orR && beat.valid && !beat.frameStart && !beat.active
-  // the clock's drops summed into a register of their own, then counted (the counter lags a clock)
-  val dropsNow = RegNext(U(queueDrop).resize(dropWidth) + U(slotDrop).resize(dropWidth) + U(staleDrop).resize(dropWidth) +
-    U(faultDrop).resize(dropWidth) + flushDrops) init 0
+  // The clock's drops registered where they arise, summed into a register of their own, then counted (the counter
+  // lags the drops by three clocks).
+  val singleDrops = RegNext(Vec(queueDrop, slotDrop, staleDrop, faultDrop).asBits) init 0
+  val dropsNow = RegNext(CountOne(singleDrops).resize(dropWidth) + CountOne(slotsFlushed).resize(dropWidth) + queueFlushed) init 0
   val drops = Reg(UInt(f.counterWidth bits)) init 0
   drops := drops + dropsNow.resize(f.counterWidth)
   io.dropped := drops
