@@ -166,15 +166,21 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
 
   val engine = new DescriptorEngine
 
-  /** Hands the queue's head to the engine. The decision is taken on registered values: the head's row test against
-    * the stream is registered, and it starts a clock later unless a row started in between. */
+  /** Hands the queue's head to the engine. The decision is taken on registered values: the rows since the head's
+    * patch was complete are registered first, the row test on them is registered next, and the head starts a clock
+    * later unless it changed or a row started in between. */
   val dispatch = new Area {
-    // the queue's RAM through a register both ways (no decision reaches its read pointer), then the lookups
-    val head = ready.io.pop.s2mPipe().m2sPipe().map(lookupCosSin).m2sPipe().map(prepare).m2sPipe()
+    // the queue's RAM through a register both ways (no decision reaches its read pointer), then the lookups, each
+    // step with its valid and ready registered (no chain of readies from the decision back to the queue): a step
+    // passes a corner every other clock, and corners are an engine's run apart
+    val head = ready.io.pop.halfPipe().map(lookupCosSin).halfPipe().map(prepare).halfPipe()
     val c = head.payload.item
-    // rows since the patch was complete (negative: not yet)
-    val since = (ring.rowCount - c.startRow).asSInt
-    val due = head.valid && !c.frameEnd && !since.msb
+    // rows since the patch was complete (negative: not yet), for the head of the clock before: it is the head's
+    // now unless the head left then or a row started since
+    val since = RegNext((ring.rowCount - c.startRow).asSInt)
+    val computed = RegNext(head.valid && !c.frameEnd && !head.fire) init False
+    val current = computed && !ring.rowStart
+    val due = current && !since.msb
     val late = since.asUInt >= d.slackRows
     val row = ring.history(since.asUInt.resize(log2Up(d.slackRows max 2)))
     val dataOk = row.active && row.frame === c.frameTag
@@ -602,8 +608,9 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
 
 object DescriptorUnit {
   /** Clocks from a corner's release (its row start), or from the engine handing its previous feature on, to the
-    * engine starting it, at most: the row test is registered and a row start in between costs one more. */
-  val dispatchClocks: Int = 4
+    * engine starting it, at most: the rows since and the row test are registered, and a row start in between costs
+    * one more. */
+  val dispatchClocks: Int = 5
 
   /** Clocks from a corner's start to its finished descriptor beyond its read issues: the front end before the first
     * issue, and the reads, the comparison and the collection after the last. */

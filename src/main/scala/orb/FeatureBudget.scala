@@ -177,6 +177,8 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
       val key = UInt(b.bandShift + log2Up(cells max 2) + b.cellShift bits)
       val cell = UInt(log2Up(cells max 2) bits)
       val index = UInt(log2Up(k max 2) bits)
+      /** the entry's place among the band's, one-hot (its score is picked by it after the choice) */
+      val place = Bits(cells * k bits)
     }
     def earlier(l: Candidate, r: Candidate): Candidate = Mux(l.valid && (!r.valid || l.key <= r.key), l, r)
     /** the first of `cs`, a register after every level of comparisons */
@@ -189,6 +191,7 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
         cand.key := e.yOffset @@ U(cell, log2Up(cells max 2) bits) @@ e.xOffset
         cand.cell := cell
         cand.index := i
+        cand.place := B(BigInt(1) << (cell * k + i), cells * k bits)
         cand
       }
     }
@@ -202,7 +205,7 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
     out.y := bandY + first.key(first.key.getWidth - 1 downto first.key.getWidth - b.bandShift).resize(f.coordWidth)
     // the score is not carried through the choice (narrower selections): picked by the winner's place, which still
     // holds it in the clock its entry is emptied
-    out.score := lists(first.cell)(first.index).score
+    out.score := MuxOH.or(first.place, lists.flatMap(_.map(_.score)).toSeq)
     when(busy) {
       pace := Mux(pace === FeatureBudget.winnerClocks - 1, U(0, pace.getWidth bits), pace + 1)
     }
@@ -338,13 +341,19 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
     // the target less the winners above the level being read, while the cut is not found (then it is > 0): the
     // level holds the cut when its count reaches it, with no adder before that comparison
     val reaches = histogram.data >= need
+    // the first level that reaches it goes into the cut a clock later, from registers (`found` stops the walk now)
+    val hit = RegNext(arrives && !found && good && reaches) init False
+    val hitLevel = RegNext(arrivedLevel)
+    val hitNeed = RegNext(need)
     when(arrives && !found) {
       when(good && reaches) {
         found := True
-        cut.level := arrivedLevel
-        cut.remainder := need.resize(BudgetConfig.targetWidth)
       }
       need := need - histogram.data.resize(need.getWidth)
+    }
+    when(hit) {
+      cut.level := hitLevel
+      cut.remainder := hitNeed.resize(BudgetConfig.targetWidth)
     }
     when(last) {
       phase := Phase.run

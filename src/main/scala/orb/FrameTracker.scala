@@ -45,9 +45,11 @@ class FrameTracker(c: FrameConfig) extends Component {
   val b = input.payload
   val fire = input.valid
 
-  // Closing the previous frame on a start of frame.
+  // Closing the previous frame on a start of frame. Whether it would close well is kept in a register, from the
+  // state's next values: the decision fans out to every field on a start of frame, and starts from a flip-flop.
   val close = new Area {
-    val good = !bad && known.xZero && !known.yZero && (!processed || done)
+    val good = RegNext(!bad.getAheadValue() && known.xZero.getAheadValue() && !known.yZero.getAheadValue() &&
+      (!processed.getAheadValue() || done.getAheadValue())) init False
     val fault = fire && b.sof && inFrame && !good
     val endsFrame = fault && !bad && processed && !done
     val countLine = fault && !known.xZero && !lineFaulted

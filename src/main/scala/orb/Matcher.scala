@@ -266,7 +266,10 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
       val distance = UInt(distanceWidth bits)
       val index = UInt(countWidth bits)
       val wins = Bool()
-      val keyX, keyY = UInt(cw bits)
+    }
+    /** a lane's keyframe position: chosen a clock after its distance, by the registered choice (see `merge`) */
+    case class Key() extends Bundle {
+      val x, y = UInt(cw bits)
     }
     val results = for ((r, l) <- reads.zipWithIndex) yield new Area {
       val count = MatcherConfig.popCount(r.entry.descriptor ^ scan.live.descriptor, m.popcountLevelsPerStage)
@@ -280,7 +283,11 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
       update.liveX := scan.live.x; update.liveY := scan.live.y
       val out = Lane()
       out.distance := Mux(real, count, U(none, distanceWidth bits))
-      out.index := index; out.wins := wins; out.keyX := keyX; out.keyY := keyY
+      out.index := index
+      out.wins := wins
+      val key = Key()
+      key.x := keyX
+      key.y := keyY
       val writeUpdate = wins
     }
     case class Best() extends Bundle { val best = Lane(); val second = UInt(distanceWidth bits) }
@@ -290,25 +297,37 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
       * comparisons are side by side, none waits for another. */
     def merge(a: Best, b: Best): Best = {
       val r = Best()
-      val takeB = b.best.distance < a.best.distance
+      val takeB = takes(a, b)
       val bSecondFirst = b.second < a.best.distance
       val aSecondFirst = a.second < b.best.distance
       r.best := Mux(takeB, b.best, a.best)
       r.second := Mux(takeB, Mux(bSecondFirst, b.second, a.best.distance), Mux(aSecondFirst, a.second, b.best.distance))
       r
     }
-    // The lanes' results registered, then a register after every level of the merge tree.
+    def takes(a: Best, b: Best): Bool = b.best.distance < a.best.distance
+    // The lanes' results registered, then a register after every level of the merge tree. The keyframe positions
+    // follow a clock behind, each level chosen by its merge's registered choice: no comparison drives their
+    // selection (the lanes lie apart).
     val outValid = RegNext(valid) init False
     val outGroup = RegNext(group)
-    var level: Seq[Best] = results.map(r => RegNext(single(r.out)))
-    while (level.size > 1) level = level.grouped(2).map(g => RegNext(merge(g(0), g(1)))).toSeq
-    val merged = level.head
+    var level: Seq[(Best, Key)] = results.map(r => (RegNext(single(r.out)), RegNext(RegNext(r.key))))
+    while (level.size > 1) level = level.grouped(2).map { g =>
+      val ((a, aKey), (b, bKey)) = (g(0), g(1))
+      val takeB = RegNext(takes(a, b))
+      (RegNext(merge(a, b)), RegNext(Mux(takeB, bKey, aKey)))
+    }.toSeq
+    val merged = level.head._1
+    val mergedKey = level.head._2
     val mergeLevels = log2Up(P)
     val mergedValid = Delay(outValid, mergeLevels, init = False)
     val mergedGroup = Delay(outGroup, mergeLevels)
     val mergedFirst = mergedValid && mergedGroup === 0
     val acc = Reg(Best())
     when(mergedValid) { acc := Mux(mergedFirst, merged, merge(acc, merged)) }
+    // the best entry's position, a clock behind `acc`
+    val accKey = Reg(Key())
+    val accTakes = RegNext(mergedValid && (mergedFirst || takes(acc, merged))) init False
+    when(accTakes) { accKey := mergedKey }
     val accValid = RegNext(mergedValid) init False
     val lastGroup = RegNext(mergedValid && mergedGroup === (groups - 1).resize(groupWidth)) init False
   }
@@ -377,8 +396,8 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
   val beat = CorrespondenceBeat(f)
   beat.liveX := Mux(swept.emit, swept.cross.liveX, scan.live.x)
   beat.liveY := Mux(swept.emit, swept.cross.liveY, scan.live.y)
-  beat.keyX := Mux(swept.emit, swept.entry.x, compare.acc.best.keyX)
-  beat.keyY := Mux(swept.emit, swept.entry.y, compare.acc.best.keyY)
+  beat.keyX := Mux(swept.emit, swept.entry.x, compare.accKey.x)
+  beat.keyY := Mux(swept.emit, swept.entry.y, compare.accKey.y)
   beat.distance := Mux(swept.emit, swept.cross.distance, compare.acc.best.distance)
   val push = output.io.push
   push.valid := RegNext(decide.emit || swept.emit) init False

@@ -119,7 +119,9 @@ class OrientationUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, c
     val corner = HarrisCorner(f, h)
     val startX, startY = UInt(cw bits)
   }
-  val head = queue.io.pop.map { c =>
+  // The queue's RAM read through a register first (its output register), then the start position.
+  val popped = queue.io.pop.m2sPipe(flush = sums.frameStart)
+  val head = popped.map { c =>
     val w = Waiting()
     w.corner := c
     w.startX := c.x - R
@@ -163,12 +165,14 @@ class OrientationUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, c
   queue.io.flush := sums.frameStart
   // (a corner pushed on that very clock is lost with the flush, so it counts too; the slots are cleared a clock
   // later, with the beat, and counted then)
-  /** the most corners one clock can drop: the queue and its head flushed, the one pushed then, the slots */
-  val dropWidth = log2Up(d.cornerQueueDepth + 2 + d.orientationSlots + 4 + 1)
+  /** the most corners one clock can drop: the queue and its two head registers flushed, the one pushed then, the
+    * slots */
+  val dropWidth = log2Up(d.cornerQueueDepth + 3 + d.orientationSlots + 4 + 1)
   // What a frame start flushes is registered first (the queue's count, the slots' busy flags) and counted in the
   // clocks after (see `dropsNow`): the slots lie apart, and their count is no path of the frame start's clock.
   val queueFlushed = RegNext(Mux(sums.frameStart,
-    queue.io.occupancy.resize(dropWidth) + U(io.corners.valid).resize(dropWidth) + U(head.valid).resize(dropWidth),
+    queue.io.occupancy.resize(dropWidth) + U(io.corners.valid).resize(dropWidth) + U(popped.valid).resize(dropWidth) +
+      U(head.valid).resize(dropWidth),
     U(0, dropWidth bits))) init 0
   val slotsFlushed = RegNext(Mux(beat.frameStart, Vec(slots.zip(starting).map { case (sl, st) => sl.busy || st }).asBits,
     B(0, slots.size bits))) init 0
@@ -181,6 +185,14 @@ class OrientationUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, c
     val t = UInt(sumWidth bits)
     val tv = SInt(sumWidth bits)
   }
+  case class Patch() extends Bundle {
+    val corner = HarrisCorner(f, h)
+    val m01 = SInt(momentWidth bits)
+    val a1 = UInt(acc1Width bits)
+    val a2 = UInt(acc2Width bits)
+  }
+  /** copies of a slot's finished flag, one per `gatherChunk` bits of its patch */
+  val gatherCopies: Int = (Patch().getBitsWidth + gatherChunk - 1) / gatherChunk
   val accumulate = for ((slot, i) <- slots.zipWithIndex) yield new Area {
     val first = starting(i)
     // An idle slot holds its first column's position and height (an enable from its own register, not from the
@@ -221,17 +233,15 @@ class OrientationUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, c
       slot.m01 := m01 + p.tv.resize(momentWidth)
     }
     // The last column completes the patch: emitted (from the registers, a clock later) only if no fault came
-    // before it in the frame.
-    val emit = RegNext(p.valid && p.last && p.active) init False
+    // before it in the frame. One copy of the flag per `gatherChunk` bits of the patch (kept apart): each selects
+    // its own part of the patch in the gather, no flag fans out to the whole patch.
+    val emitNow = p.valid && p.last && p.active
+    val emit = RegNext(emitNow) init False
+    val emitCopies = Vec.fill(gatherCopies)(RegNext(emitNow) init False)
+    emitCopies.addAttribute("preserve")
   }
   // The finished patch, a clock after its last column: m10 = 16 a1 - a2 = 15 a1 - a2' (a2' = acc2, a column
   // behind) is formed in the stage after.
-  case class Patch() extends Bundle {
-    val corner = HarrisCorner(f, h)
-    val m01 = SInt(momentWidth bits)
-    val a1 = UInt(acc1Width bits)
-    val a2 = UInt(acc2Width bits)
-  }
   case class Finished() extends Bundle {
     val oriented = OrientedCorner(f, h, d)
     val a1 = UInt(acc1Width bits)
@@ -247,13 +257,21 @@ class OrientationUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, c
     p
   }
   // At most one slot finishes per pixel (finishing corners are at distinct x of one row): a one-hot selection, in
-  // two registered levels (the slots lie apart): each pair of slots, then the pairs.
-  val pairs = emits.indices.grouped(2).toIndexedSeq.map { k =>
-    val sel = k.map(emits).toIndexedSeq
-    (RegNext(sel.orR) init False, RegNext(OhMux.or(sel, k.map(patches))))
+  // two registered levels (the slots lie apart): each pair of slots, then the pairs. Each part of the patch is
+  // selected by its own copy of the slots' flags.
+  def chunks(p: Patch): Seq[Bits] = p.asBits.subdivideIn(gatherChunk bits, strict = false).toSeq
+  val pairs = slots.indices.grouped(2).toIndexedSeq.map { k =>
+    val parts = chunks(patches(k.head)).indices.map { j =>
+      RegNext(k.map(i => chunks(patches(i))(j) & B(chunks(patches(i))(j).getWidth bits, default -> accumulate(i).emitCopies(j))).reduce(_ | _))
+    }
+    val p = Patch()
+    p.assignFromBits(parts.reverse.reduce(_ ## _))
+    (RegNext(k.map(emits).orR) init False, p)
   }
   val emitted = pairs.map(_._1).orR
-  val patch = OhMux.or(pairs.map(_._1), pairs.map(_._2))
+  // a pair's part is zero unless one of its slots finished: the pairs are simply ORed
+  val patch = Patch()
+  patch.assignFromBits(pairs.map(_._2.asBits).reduce(_ | _))
   val beatD = new Area {
     // The beat of the last column (three clocks on, with its patch), in row cy + R; the descriptor's 37 smoothed
     // rows are complete when row cy + 22 starts.
@@ -304,4 +322,6 @@ object OrientationUnit {
   val rowCountWidth: Int = 12
   /** frames counted since reset, wrapping: tells a corner's frame from the next few */
   val frameTagWidth: Int = 4
+  /** bits of a finished patch selected by one copy of its slot's flag in the gather */
+  val gatherChunk: Int = 16
 }

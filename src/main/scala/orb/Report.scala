@@ -162,7 +162,8 @@ object Report {
       write(new File(work, f), text)
     }
     val log = new File(work, "yosys.log")
-    val status = Process(Seq("yosys", "-q", "-l", log.getName, "-s", "flow.ys"), work).!(ProcessLogger(_ => ()))
+    val status = try Process(Seq("yosys", "-q", "-l", log.getName, "-s", "flow.ys"), work).!(ProcessLogger(_ => ()))
+      catch { case _: java.io.IOException => throw new RuntimeException("yosys is not on the PATH (Debian: apt-get install yosys)") }
     if (status != 0) throw new RuntimeException(s"yosys failed (status $status); see ${log.getPath}")
     val alone = new StringBuilder
     val s2 = Process(Seq("python3", "netlist.py", "les", "generic.json"), work).!(ProcessLogger(l => alone ++= l + "\n", l => alone ++= l + "\n"))

@@ -43,6 +43,7 @@ object TopSim {
       top.matcher.decide.done.simPublic()
       top.matcher.decide.emptyDone.simPublic()
       top.matcher.compare.acc.simPublic()
+      top.matcher.compare.accKey.simPublic()
       top.matcher.scan.live.simPublic()
       top
     }
@@ -92,7 +93,7 @@ object TopSim {
       val m = dut.matcher
       if (m.decide.done.toBoolean) {
         val a = m.compare.acc
-        scans += Scan(m.scan.live.x.toInt, m.scan.live.y.toInt, a.best.index.toInt, a.best.keyX.toInt, a.best.keyY.toInt,
+        scans += Scan(m.scan.live.x.toInt, m.scan.live.y.toInt, a.best.index.toInt, m.compare.accKey.x.toInt, m.compare.accKey.y.toInt,
           a.best.distance.toInt, a.second.toInt)
       }
       val out = dut.io.correspondences
