@@ -272,7 +272,17 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
       val x, y = UInt(cw bits)
     }
     val results = for ((r, l) <- reads.zipWithIndex) yield new Area {
-      val count = MatcherConfig.popCount(r.entry.descriptor ^ scan.live.descriptor, m.popcountLevelsPerStage)
+      // the lane's own copy of the live descriptor (kept apart, beside the lane's RAMs: one copy would drive all
+      // four lanes' comparisons across the chip), copied while the scan is idle as `scan.live` is, by an enable
+      // from the lane's own copy of the idle flag
+      val idle = RegNext(!scan.busy.getAheadValue()) init True
+      idle.addAttribute("preserve")
+      val liveDescriptor = Reg(cloneOf(item.descriptor))
+      liveDescriptor.addAttribute("preserve")
+      when(idle) {
+        liveDescriptor := item.descriptor
+      }
+      val count = MatcherConfig.popCount(r.entry.descriptor ^ liveDescriptor, m.popcountLevelsPerStage)
       val old = Delay(r.cross, popStages)
       val keyX = Delay(r.entry.x, popStages); val keyY = Delay(r.entry.y, popStages)
       val index = (group.resize(countWidth) |<< log2Up(P)) | U(l, countWidth bits)

@@ -273,24 +273,33 @@ class OrientationUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, c
   val patch = Patch()
   patch.assignFromBits(pairs.map(_._2.asBits).reduce(_ | _))
   val beatD = new Area {
-    // The beat of the last column (three clocks on, with its patch), in row cy + R; the descriptor's 37 smoothed
-    // rows are complete when row cy + 22 starts.
-    val startRow = Delay(beat.rowNow + (OrbDescriptorConfig.startRowOffset - R), 3)
-    val frameTag = Delay(beat.frameNow, 3)
-    val keyframe = Delay(beat.keyframe, 3)
-    val ends = Delay(beat.valid && beat.ends, 3, init = False)
-    val end = Delay(beat.end, 3)
+    /** clocks from the beat of a patch's last column to the gathered patch: the pick, the slot's finished flag, the
+      * pairs' level */
+    val gatherClocks = 3
+    // The beat of the last column (with its patch), in row cy + R; the descriptor's 37 smoothed rows are complete
+    // when row cy + 22 starts.
+    val startRow = Delay(beat.rowNow + (OrbDescriptorConfig.startRowOffset - R), gatherClocks)
+    val frameTag = Delay(beat.frameNow, gatherClocks)
+    val keyframe = Delay(beat.keyframe, gatherClocks)
+    val ends = Delay(beat.valid && beat.ends, gatherClocks, init = False)
+    val end = Delay(beat.end, gatherClocks)
   }
   // A frame's end follows its corners: no corner of a good frame finishes on its last pixel (the last corners
   // finish 7 rows earlier), and on a fault no corner finishes (it would be dropped).
   val finishing = Flow(Finished())
   finishing.valid := emitted || beatD.ends
   val o = finishing.oriented
-  o.corner := patch.corner; o.m01 := patch.m01
-  o.m10.assignDontCare(); o.bin.assignDontCare()
-  o.startRow := beatD.startRow; o.frameTag := beatD.frameTag; o.keyframe := beatD.keyframe
-  o.frameEnd := beatD.ends; o.end := beatD.end
-  finishing.a1 := patch.a1; finishing.a2 := patch.a2
+  o.corner := patch.corner
+  o.m01 := patch.m01
+  o.m10.assignDontCare()
+  o.bin.assignDontCare()
+  o.startRow := beatD.startRow
+  o.frameTag := beatD.frameTag
+  o.keyframe := beatD.keyframe
+  o.frameEnd := beatD.ends
+  o.end := beatD.end
+  finishing.a1 := patch.a1
+  finishing.a2 := patch.a2
   val moments = finishing.stage().map { p =>
     val o = OrientedCorner(f, h, d)
     o := p.oriented
