@@ -47,11 +47,14 @@ class OrbTop(val cfg: OrbConfig = OrbConfig.default) extends Component {
     matcher.io.params.ratio := ratio
     matcher.io.params.ratioTest := ratioTest
     matcher.io.params.crossCheck := crossCheck
-    val s = core.io.status; val t = matcher.io.status
+    val s = core.io.status
+    val t = matcher.io.status
+    // the counters come from across the chip: each is copied into a register beside the bus (a read sees it a clock
+    // late), so the read multiplexer's inputs are local
     for ((value, address) <- Seq(s.frames -> FRAMES, s.badFrames -> BAD_FRAMES, s.badLines -> BAD_LINES,
       s.corners -> CORNERS, s.features -> FEATURES, s.featureDrops -> FEATURE_DROPS, t.stored -> STORED,
       t.storeOverflow -> STORE_OVERFLOW, t.matches -> MATCHES, t.matchDrops -> MATCH_DROPS, s.deselected -> DESELECTED))
-      bus.read(value, address)
+      bus.read(RegNext(value), address)
   }
 }
 
