@@ -168,16 +168,16 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
       lists := banks(bank)
       for (list <- banks(bank); e <- list) e.valid := False
     }
-    // The winner that comes first in raster order (row offset, then cell, then column; without its score), in registered steps
+    // The winner that comes first in raster order (row offset, then cell, then column; without its score), in
+    // registered steps
     // within the pace, one comparison each: pairs of a cell's entries, the cell's first, pairs of cells, the band's
     // first; at the next step it leaves and its entry is emptied, in time for the next winner's first step (the
     // first step is the clock after the copy).
     case class Candidate() extends Bundle {
       val valid = Bool()
       val key = UInt(b.bandShift + log2Up(cells max 2) + b.cellShift bits)
-      val cell = UInt(log2Up(cells max 2) bits)
-      val index = UInt(log2Up(k max 2) bits)
-      /** the entry's place among the band's, one-hot (its score is picked by it after the choice) */
+      /** the entry's place among the band's, one-hot: its score is picked and its entry emptied by it after the
+        * choice */
       val place = Bits(cells * k bits)
     }
     def earlier(l: Candidate, r: Candidate): Candidate = Mux(l.valid && (!r.valid || l.key <= r.key), l, r)
@@ -189,8 +189,6 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
         val cand = Candidate()
         cand.valid := e.valid
         cand.key := e.yOffset @@ U(cell, log2Up(cells max 2) bits) @@ e.xOffset
-        cand.cell := cell
-        cand.index := i
         cand.place := B(BigInt(1) << (cell * k + i), cells * k bits)
         cand
       }
@@ -212,7 +210,7 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
     when(trigger || copying) { pace := 0 }
     when(now) {
       when(first.valid) {
-        lists(first.cell)(first.index).valid := False
+        for ((e, place) <- lists.flatMap(_.toSeq).zipWithIndex) when(first.place(place)) { e.valid := False }
       } otherwise {
         busy := False
       }
@@ -266,8 +264,9 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
   }
 
   // Winners, three clocks after they leave the bank (their score picked in the first, the leading one's position
-  // in the second, the level in the third), against the cut and the target. The comparisons with the counts are registered a clock ahead: winners
-  // are `FeatureBudget.winnerClocks` apart, so the counts have settled long before the next one.
+  // in the second, the level in the third), against the cut and the target. The comparisons with the counts are
+  // registered a clock ahead: winners are `FeatureBudget.winnerClocks` apart, so the counts have settled long
+  // before the next one.
   val decide = new Area {
     val leading = emission.out.stage()
     val scored = leading.stage()

@@ -284,7 +284,6 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
       }
       val count = MatcherConfig.popCount(r.entry.descriptor ^ liveDescriptor, m.popcountLevelsPerStage)
       val old = Delay(r.cross, popStages)
-      val keyX = Delay(r.entry.x, popStages); val keyY = Delay(r.entry.y, popStages)
       val index = (group.resize(countWidth) |<< log2Up(P)) | U(l, countWidth bits)
       val real = index < stored
       val wins = valid && real && count < old.distance
@@ -296,8 +295,8 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
       out.index := index
       out.wins := wins
       val key = Key()
-      key.x := keyX
-      key.y := keyY
+      key.x := Delay(r.entry.x, popStages)
+      key.y := Delay(r.entry.y, popStages)
       val writeUpdate = wins
     }
     case class Best() extends Bundle { val best = Lane(); val second = UInt(distanceWidth bits) }

@@ -54,7 +54,7 @@ class OrbTop(val cfg: OrbConfig = OrbConfig.default) extends Component {
     for ((value, address) <- Seq(s.frames -> FRAMES, s.badFrames -> BAD_FRAMES, s.badLines -> BAD_LINES,
       s.corners -> CORNERS, s.features -> FEATURES, s.featureDrops -> FEATURE_DROPS, t.stored -> STORED,
       t.storeOverflow -> STORE_OVERFLOW, t.matches -> MATCHES, t.matchDrops -> MATCH_DROPS, s.deselected -> DESELECTED))
-      bus.read(RegNext(value), address)
+      bus.read(RegNext(value) init 0, address)
   }
 }
 

@@ -174,8 +174,8 @@ class OrientationUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, c
     queue.io.occupancy.resize(dropWidth) + U(io.corners.valid).resize(dropWidth) + U(popped.valid).resize(dropWidth) +
       U(head.valid).resize(dropWidth),
     U(0, dropWidth bits))) init 0
-  val slotsFlushed = RegNext(Mux(beat.frameStart, Vec(slots.zip(starting).map { case (sl, st) => sl.busy || st }).asBits,
-    B(0, slots.size bits))) init 0
+  val slotsBusy = Vec(slots.zip(starting).map { case (sl, st) => sl.busy || st }).asBits
+  val slotsFlushed = RegNext(Mux(beat.frameStart, slotsBusy, B(0, slots.size bits))) init 0
 
   val heightOfFirst = sums.heightOnehot(-R)
   // Each slot picks its column's sums (by the column's disc height) into registers of its own, then accumulates them a
@@ -259,11 +259,14 @@ class OrientationUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, c
   // At most one slot finishes per pixel (finishing corners are at distinct x of one row): a one-hot selection, in
   // two registered levels (the slots lie apart): each pair of slots, then the pairs. Each part of the patch is
   // selected by its own copy of the slots' flags.
-  def chunks(p: Patch): Seq[Bits] = p.asBits.subdivideIn(gatherChunk bits, strict = false).toSeq
-  val pairs = slots.indices.grouped(2).toIndexedSeq.map { k =>
-    val parts = chunks(patches(k.head)).indices.map { j =>
-      RegNext(k.map(i => chunks(patches(i))(j) & B(chunks(patches(i))(j).getWidth bits, default -> accumulate(i).emitCopies(j))).reduce(_ | _))
+  /** each slot's patch in parts of `gatherChunk` bits, each ANDed with its own copy of the slot's flag */
+  val masked = slots.indices.map { i =>
+    patches(i).asBits.subdivideIn(gatherChunk bits, strict = false).toSeq.zipWithIndex.map { case (part, j) =>
+      part & B(part.getWidth bits, default -> accumulate(i).emitCopies(j))
     }
+  }
+  val pairs = slots.indices.grouped(2).toIndexedSeq.map { k =>
+    val parts = masked(k.head).indices.map(j => RegNext(k.map(i => masked(i)(j)).reduce(_ | _)))
     val p = Patch()
     p.assignFromBits(parts.reverse.reduce(_ ## _))
     (RegNext(k.map(emits).orR) init False, p)
@@ -314,7 +317,8 @@ class OrientationUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, c
   // The clock's drops registered where they arise, summed into a register of their own, then counted (the counter
   // lags the drops by three clocks).
   val singleDrops = RegNext(Vec(queueDrop, slotDrop, staleDrop, faultDrop).asBits) init 0
-  val dropsNow = RegNext(CountOne(singleDrops).resize(dropWidth) + CountOne(slotsFlushed).resize(dropWidth) + queueFlushed) init 0
+  val dropsNow = RegNext(CountOne(singleDrops).resize(dropWidth) + CountOne(slotsFlushed).resize(dropWidth) +
+    queueFlushed) init 0
   val drops = Reg(UInt(f.counterWidth bits)) init 0
   drops := drops + dropsNow.resize(f.counterWidth)
   io.dropped := drops
