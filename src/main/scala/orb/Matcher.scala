@@ -200,7 +200,10 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
     val lane = entry.resize(log2Up(P) max 1)
     val addr = groupOf(entry, groupWidth)
     /** reads whose clear has not been written yet: the next feature's scan must not read their words before */
-    val draining = (1 to readLatency + 1).map(k => Delay(reading, k, init = False)).reduce(_ || _)
+    val drains = (1 to readLatency + 1).map(k => Delay(reading, k, init = False))
+    val draining = drains.reduce(_ || _)
+    /** `draining` in the next clock */
+    val drainingNext = (reading +: drains.init).reduce(_ || _)
   }
 
   // Frame end of a keyframe: the scores in the cross words are replaced by cleared cross state, a group per clock.
@@ -398,7 +401,12 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
     lane.cross.write(RegNext(address), RegNext(data), RegNext(enable) init False)
   }
 
-  item.ready := !scan.busy && !sweep.busy && !sweep.draining && !rescan.busy && !rescan.starting && !keyEnd.busy && paced.itemRoom
+  // Ready for the next item when nothing is busy: a register, computed from the next values of the flags it depends
+  // on, so no decision hangs on the handshake and nothing waits for the readiness's own logic.
+  val readyNext = !scan.busy.getAheadValue() && !sweep.busy.getAheadValue() && !sweep.drainingNext &&
+    !rescan.busy.getAheadValue() && !rescan.starting.getAheadValue() && !keyEnd.busy.getAheadValue() &&
+    (paced.roomForItem.getAheadValue() || paced.giveUp.getAheadValue())
+  item.ready := RegNext(readyNext) init True
 
   // The correspondence registered on its way into the FIFO (the lanes' RAMs are far from it): a scan's is pushed a
   // clock after its decision, the sweep's `pushLatency` clocks after its read.

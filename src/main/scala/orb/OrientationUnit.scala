@@ -152,11 +152,14 @@ class OrientationUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, c
   // The start decision is registered before it reaches the slots: the chosen slot accumulates the beat of its first
   // column with zero sums (no adder waits for the decision, only a registered select). Starts are at least two
   // pixels apart after the 3x3 suppression, so a slot is never chosen twice in one clock.
+  // The free slot is chosen a clock ahead, from the slots' next busy flags: a slot chosen at the last decision is
+  // not busy yet then, but no start follows a start in the next clock.
   val starting = Vec(slots.map(_ => Reg(Bool()) init False))
-  val free = Vec(slots.zip(starting).map { case (slot, st) => !slot.busy && !st })
-  val chosen = OHMasking.first(free.asBits)
-  val startOk = startHere && free.orR
-  val slotDrop = startHere && !free.orR
+  val freeNext = Vec(slots.map(slot => !slot.busy.getAheadValue()))
+  val chosen = RegNext(OHMasking.first(freeNext.asBits)) init 0
+  val anyFree = RegNext(freeNext.orR) init False
+  val startOk = startHere && anyFree
+  val slotDrop = startHere && !anyFree
   val startCorner = RegNextWhen(head.corner, startOk)
   for (i <- slots.indices) starting(i) := startOk && chosen(i)
   head.ready := startHere || (head.valid && sums.valid && ahead.compared && ahead.past)

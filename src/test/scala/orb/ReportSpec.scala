@@ -38,7 +38,7 @@ class ReportSpec extends AnyFunSuite {
       Ecp5Proxy.Port("io_a", input = true, 16), Ecp5Proxy.Port("io_p", input = false, 32))
     val w = Ecp5Proxy.wrapper("M", ports)
     assert(w.contains("module proxy_top (input wire clk, output wire dout);") && w.contains(".io_a(ring[15:0])") &&
-      w.contains(".io_p(outs[31:0])") && w.contains(".reset(reset_q)") && w.contains("assign dout = level3[0];"))
+      w.contains(".io_p(outs[31:0])") && w.contains(".reset(reset_g)") && w.contains("DCCA reset_buffer") && w.contains("assign dout = level3[0];"))
     assert(Ecp5Proxy.ports(scala.io.Source.fromFile(new File(dir, "MulProbe.v")).mkString, "MulProbe").map(p => p.name -> p.width).toSet ==
       Set("io_a" -> 16, "io_b" -> 16, "io_product" -> 32, "clk" -> 1, "reset" -> 1))
   }

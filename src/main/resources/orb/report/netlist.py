@@ -29,8 +29,14 @@ Prints one line: counts of what was packed.
 `path REPORT.json NETLIST.json`: the critical path of a nextpnr report, as one line of JSON: source and sink
 registers (net names, kept by the flow), logic levels (LUTs and carry-chain entries, not the hops inside a chain),
 logic and routing delay, the largest fan-out on the path and its net, the RTL lines along it.
+
+`slack SDF NETLIST PERIOD_NS [N]`: every failing endpoint of a routed design, from nextpnr's SDF (routed net and cell
+delays, the largest of min:typ:max as nextpnr's own analysis takes): arrival times over the whole netlist, the
+endpoints whose slack at PERIOD_NS is negative, grouped by source and sink register (names from NETLIST, bit indices
+dropped), worst first; N groups (default 40). One routed run thus shows every path to fix, not only the worst.
 """
 import json
+import re
 import sys
 from collections import defaultdict
 
@@ -334,6 +340,126 @@ def les(generic_file):
         print(name, alone)
 
 
+def parse_sdf(sdf_file):
+    """nextpnr's SDF -> (arcs: pin -> [(pin, ns)], launch: output pin -> clock-to-out, setup: input pin -> setup,
+    cell types); a pin is (instance, port)"""
+    arcs, launch, setup, types = defaultdict(list), {}, {}, {}
+    inst, ctype = None, None
+    check = re.compile(r"\(SETUPHOLD \((?:posedge|negedge) (\S+)\) \((?:posedge|negedge) \S+\) (\S+) \S+\)")
+
+    def unescape(s):
+        return s.replace("\\", "")
+
+    def worst(*values):
+        return max(float(v.strip("()").split(":")[-1]) for v in values) / 1000.0
+
+    with open(sdf_file) as f:
+        for line in f:
+            s = line.strip()
+            if s.startswith("(CELLTYPE"):
+                ctype = s.split('"')[1]
+            elif s.startswith("(INSTANCE"):
+                inst = unescape(s[len("(INSTANCE"):].rstrip(")").strip())
+                types[inst] = ctype
+            elif s.startswith("(INTERCONNECT"):
+                parts = s[1:].rstrip(")").split()
+                a, b = unescape(parts[1]).rsplit("/", 1), unescape(parts[2]).rsplit("/", 1)
+                arcs[tuple(a)].append((tuple(b), worst(parts[3], parts[4])))
+            elif s.startswith("(IOPATH"):
+                parts = s[1:].rstrip(")").split()
+                d = worst(parts[3], parts[4])
+                if parts[1].startswith("CLK"):
+                    launch[(inst, parts[2])] = max(launch.get((inst, parts[2]), 0.0), d)
+                else:
+                    arcs[(inst, parts[1])].append(((inst, parts[2]), d))
+            elif s.startswith("(SETUPHOLD"):
+                m = check.match(s)
+                if m:
+                    pin = (inst, m.group(1))
+                    setup[pin] = max(setup.get(pin, 0.0), worst(m.group(2)))
+    return arcs, launch, setup, types
+
+
+def slack(sdf_file, netlist_file, period, groups_shown=40):
+    period, groups_shown = float(period), int(groups_shown)
+    arcs, launch, setup, types = parse_sdf(sdf_file)
+    indeg = defaultdict(int)
+    for u, vs in arcs.items():
+        for v, _ in vs:
+            indeg[v] += 1
+    arrival, pred = dict(launch), {}
+    ready = [u for u in set(arcs) | set(launch) if indeg[u] == 0]
+    while ready:
+        u = ready.pop()
+        for v, d in arcs.get(u, []):
+            if u in arrival and arrival[u] + d > arrival.get(v, -1.0):
+                arrival[v], pred[v] = arrival[u] + d, u
+            indeg[v] -= 1
+            if indeg[v] == 0:
+                ready.append(v)
+    with open(netlist_file) as f:
+        netlist = json.load(f)
+    top = next(m for m in netlist["modules"].values() if m.get("attributes", {}).get("top"))
+    names = defaultdict(list)
+    for name, n in top["netnames"].items():
+        for b in n["bits"]:
+            if isinstance(b, int):
+                names[b].append(name)
+
+    def register(cell):
+        """the register (its kept net name, bit index dropped) of a flip-flop, else the cell and its type"""
+        c = top["cells"].get(cell)
+        if c is not None and c["type"] == "TRELLIS_FF":
+            named = [n for n in names.get(c["connections"]["Q"][0], []) if not n.startswith("$")]
+            if named:
+                return re.sub(r"\[\d+\]$", "", min(named, key=len))
+        return f"{re.sub(r'_TRELLIS_FF_Q(_[0-9]+)?$', '', cell)} ({types.get(cell, '?')})"
+
+    def kind(name):
+        """a register's name with its numbers (bits, slots, lanes, copies) as '#'"""
+        return re.sub(r"\d+", "#", name)
+
+    def block(name):
+        parts = name.split(".")
+        return ".".join(parts[:3]) if len(parts) > 3 and parts[1] == "core" else ".".join(parts[:2])
+
+    found, blocks = {}, defaultdict(lambda: [0.0, 0])
+    failing = 0
+    for pin, su in setup.items():
+        if pin not in arrival or period - su - arrival[pin] >= 0:
+            continue
+        failing += 1
+        steps = [pin]
+        while steps[-1] in pred:
+            steps.append(pred[steps[-1]])
+        path = steps[::-1]
+        src = register(path[0][0])
+        dst = register(pin[0]) + ("" if types.get(pin[0]) == "TRELLIS_FF" else f".{pin[1]}")
+        key = (kind(src), kind(dst))
+        s = period - su - arrival[pin]
+        # logic levels: arcs through a cell, a carry chain counted once (arcs entering at FCI skipped)
+        levels = sum(1 for a, b in zip(path[1:], path[2:]) if a[0] == b[0] and a[1] != "FCI")
+        if key not in found or s < found[key][0]:
+            found[key] = [s, found.get(key, [0, 0])[1], levels, src, dst, path]
+        found[key][1] += 1
+        b = blocks[block(dst)]
+        b[0], b[1] = min(b[0], s), b[1] + 1
+    print(f"{failing} endpoints fail {period:.3f} ns ({1000 / period:.1f} MHz), in {len(found)} groups")
+    print("per sink block (worst slack ns, endpoints):")
+    for name, (s, count) in sorted(blocks.items(), key=lambda kv: kv[1][0]):
+        print(f"  {s:7.2f} {count:6d}  {name}")
+    print("groups, worst first (worst slack ns, endpoints, logic levels, source -> sink of the worst, as registers "
+          "with numbers as #):")
+    ranked = sorted(found.values(), key=lambda v: v[0])
+    for s, count, levels, src, dst, _ in ranked[:groups_shown]:
+        print(f"{s:7.2f} {count:6d} {levels:3d}  {src} -> {dst}")
+    print(f"the worst paths of the first {min(groups_shown, len(ranked))} groups, through (cell, port: arrival ns):")
+    for s, count, levels, src, dst, path in ranked[:groups_shown]:
+        hops = [f"{register(c) if types.get(c) == 'TRELLIS_FF' else c}.{p}:{arrival.get((c, p), 0):.2f}"
+                for c, p in path if p not in ("FCI", "FCO")]
+        print(f"{s:7.2f}  " + "  ".join(hops))
+
+
 if __name__ == "__main__":
     if len(sys.argv) == 5 and sys.argv[1] == "pack":
         pack(*sys.argv[2:5])
@@ -341,5 +467,7 @@ if __name__ == "__main__":
         les(sys.argv[2])
     elif len(sys.argv) == 4 and sys.argv[1] == "path":
         path(*sys.argv[2:4])
+    elif len(sys.argv) in (5, 6) and sys.argv[1] == "slack":
+        slack(*sys.argv[2:])
     else:
         sys.exit(__doc__)
