@@ -200,8 +200,6 @@ object SegmentTestConfig {
   *                         a 512-entry cos/sin table, nothing per pixel.
   * @param tanFracBits      fraction bits of the bin-boundary tangents the angle search compares against
   * @param rotationFracBits fraction bits of the per-bin cos/sin used to rotate the test pattern
-  * @param orientationSlots corners of one row whose moments accumulate at the same time (a corner occupies a slot
-  *                         while the 31 columns of its patch pass; corners closer than 31 px share the time)
   * @param cornerQueueDepth selected corners waiting for the rows of their orientation patch (the budget's bands
   *                         from their emission to the orientation of their last row: `OrbConfig` checks the depth)
   * @param slackRows        rows after its patch is complete during which a corner's descriptor may still be
@@ -210,10 +208,10 @@ object SegmentTestConfig {
   * @param readyQueueDepth  oriented corners waiting for a descriptor engine (checked as the corner queue)
   */
 case class OrbDescriptorConfig(angleBins: Int = 512, tanFracBits: Int = 18, rotationFracBits: Int = 16,
-                               orientationSlots: Int = 8, cornerQueueDepth: Int = 64,
+                               cornerQueueDepth: Int = 64,
                                slackRows: Int = 8, readyQueueDepth: Int = 128) {
   require(angleBins >= 8 && angleBins % 8 == 0, "angleBins must be a multiple of 8")
-  require(orientationSlots >= 1 && cornerQueueDepth >= 2 && slackRows >= 1 && readyQueueDepth >= 2)
+  require(cornerQueueDepth >= 2 && slackRows >= 1 && readyQueueDepth >= 2)
   /** Smoothed rows kept: the 37 a descriptor reads plus `slackRows` in which it may still be computed. */
   def smoothedRows: Int = 2 * OrbDescriptorConfig.sampleReach + 1 + slackRows
   require(tanFracBits >= 8 && tanFracBits <= 30 && rotationFracBits >= 8 && rotationFracBits <= 30)
@@ -309,8 +307,8 @@ object MatcherConfig {
   val readLatency: Int = 3
   /** clocks from the sweep's read of an entry to its correspondence's push into the output FIFO (a register) */
   val pushLatency: Int = readLatency + 1
-  /** The popcount adds 8-bit chunk counts (32 of them) in a binary tree of 5 levels. */
-  val chunkBits: Int = 8
+  /** The popcount adds the counts of 4-bit chunks in a binary tree (a chunk's xor and count fit two LUT levels). */
+  val chunkBits: Int = 4
   val treeLevels: Int = log2Up(256 / chunkBits)
   def popcountStages(m: MatcherConfig): Int = 1 + (treeLevels + m.popcountLevelsPerStage - 1) / m.popcountLevelsPerStage
 
@@ -346,8 +344,6 @@ case class OrbConfig(frame: FrameConfig = FrameConfig(), harris: HarrisConfig = 
   // The feature budget's cells against what the stages behind them can serve (see `budgetService`).
   require(harris.border >= budget.cellHeight + budget.emitRowOffset,
     "every band with corners must be emitted before its frame ends")
-  require(descriptor.orientationSlots >= 2 * budget.perCell,
-    s"a row can have ${2 * budget.perCell} budget winners within 31 columns: that many orientation slots")
   require(perCellFor(frame.maxWidth) == budget.perCell,
     s"the stages behind the feature budget cannot serve ${budget.perCell} corners per cell in ${frame.maxWidth}-px lines: " +
       budgetService(frame.maxWidth, budget.perCell).getOrElse(""))

@@ -141,6 +141,8 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
   /** cos and sin of a bin from a quarter of the table (`OrbDescriptorConfig.cosSin`): the magnitudes of the bin
     * within its quadrant, registered, then swapped and signed by the quadrant. */
   val quarterCos = Vec(d.quarterCos.map(c => U(c, magnitudeWidth bits)))
+  /** the same table read backwards (sin of the angle within the quadrant): no subtraction before the lookup */
+  val quarterSin = Vec(d.quarterCos.reverse.map(c => U(c, magnitudeWidth bits)))
   val quarterIndexWidth = log2Up(d.binsPerQuadrant + 1)
   case class CosSinLookup() extends Bundle {
     val item = ReadyCorner()
@@ -153,7 +155,7 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
     o.item := r
     o.quadrant := r.bin(d.binWidth - 1 downto d.binWidth - 2)
     o.c := quarterCos(within)
-    o.s := quarterCos(U(d.binsPerQuadrant, quarterIndexWidth bits) - within)
+    o.s := quarterSin(within)
     o
   }
   /** quadrant 0: (c, s), 1: (-s, c), 2: (-c, -s), 3: (s, -c) */
@@ -234,6 +236,7 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
       rowsLeft := left
       fetch.group := 0
       collect.done := 0
+      collect.lastGroup := Bool(groups == 1)
     }
 
     when(ring.rowStart && running) {
@@ -242,9 +245,22 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
 
     /** Advances the front end: low while the issue stage repeats a group (registered: see `issue`). */
     val advance = RegInit(True)
-    def step[T <: Data](v: T): T = RegNextWhen(v, advance)
+    /** copies of `advance` (kept apart), each enabling a share of the front end's registers: no one flag drives
+      * them all */
+    val advanceCopies = Seq.fill(DescriptorUnit.advanceCopies) {
+      val a = RegNext(advance.getAheadValue()) init True
+      a.addAttribute("preserve")
+      a
+    }
+    private var steps = 0
+    /** the next copy of `advance`, in turn */
+    private def enable(): Bool = {
+      steps += 1
+      advanceCopies(steps % advanceCopies.size)
+    }
+    def step[T <: Data](v: T): T = RegNextWhen(v, enable())
     def stepValid(v: Bool): Bool = {
-      val r = RegNextWhen(v, advance) init False
+      val r = RegNextWhen(v, enable()) init False
       when(abandon) {
         r := False
       }
@@ -269,9 +285,18 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
         require(values.forall(_.abs < (1 << patternWidth)))
         values.map(v => Bool(v < 0) ## U(v.abs, patternWidth bits)).reverse.reduce(_ ## _)
       })
-      // the table's output registered beside it, then a copy that feeds only the multipliers (their input registers)
+      // the table read in quarters, each quarter's word registered beside it, then the quarter picked into a
+      // register that feeds only the multipliers (their input registers)
       val valid = stepValid(stepValid(fetch.valid))
-      val bits = step(step(rom(fetch.group.resize(log2Up(groups)))))
+      val index = fetch.group.resize(log2Up(groups))
+      val quarterWidth = (index.getWidth - 2) max 0
+      val quarters = (0 until 4).map { q =>
+        val entries = rom.drop(q << quarterWidth).take(1 << quarterWidth)
+        if (entries.isEmpty) B(0, rom.head.getWidth bits) else Vec(entries)(index.resize(quarterWidth))
+      }
+      val quarterWords = step(Vec(quarters))
+      val quarter = step(index(index.high downto quarterWidth).resize(2))
+      val bits = step(quarterWords(quarter))
       private def field(k: Int): Bits = bits(k * (patternWidth + 1), patternWidth + 1 bits)
       /** point i: |x|, x < 0, |y|, y < 0 */
       def x(i: Int): UInt = field(2 * i).resize(patternWidth).asUInt
@@ -354,10 +379,11 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
     /** floor(v / 2^fb) + 1 when the rest is above the half, or exactly the half and the floor odd (cvRound), then
       * the sign */
     def round(s: Sum): SInt = {
-      val q = s.high(s.high.high downto 1)
+      val q = s.high(s.high.high downto 1).resize(offsetWidth)
       val up = s.high(0) && (s.sticky || q.lsb)
-      val rounded = (q + Mux(up, S(1, q.getWidth bits), S(0, q.getWidth bits))).resize(offsetWidth)
-      Mux(s.negative, -rounded, rounded)
+      // (q + up) or -(q + up) = ~q + !up: one adder, the sign folded into its operand and its carry
+      val folded = (q.asBits ^ B(offsetWidth bits, default -> s.negative)).asUInt
+      (folded + U(up ^ s.negative).resize(offsetWidth)).asSInt
     }
     val rotated = new Area {
       val valid = stepValid(sums.valid)
@@ -543,6 +569,8 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
     // ---- compare and collect ----
     val collect = new Area {
       val done = Reg(UInt(log2Up(groups + 1) bits)) init 0
+      /** done === groups - 1, a register beside the count */
+      val lastGroup = Reg(Bool()) init False
       val r = back.reads7
       val held = Reg(UInt(8 bits))
       when(r.valid && r.hold) {
@@ -561,7 +589,8 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
         when(reads8.last) {
           descriptor := results.asBits ## descriptor(255 downto testsPerGroup)
           done := done + 1
-          when(done === groups - 1) {
+          lastGroup := done === groups - 2
+          when(lastGroup) {
             state := EngineState.FINISHED
           }
         }
@@ -624,6 +653,9 @@ object DescriptorUnit {
   /** Clocks from a corner's start to its finished descriptor beyond its read issues: the front end before the first
     * issue, and the reads, the comparison and the collection after the last. */
   val engineLatency: Int = 21
+
+  /** copies of the front end's `advance`, each enabling a share of its registers */
+  val advanceCopies: Int = 8
 
   /** Clocks the engine takes for a corner of bin `bin` whose patch's oldest row is in ring slot `base`. */
   def clocks(bin: Int, base: Int, d: OrbDescriptorConfig): Int = engineLatency + DescriptorSchedule.issueClocks(bin, base, d)

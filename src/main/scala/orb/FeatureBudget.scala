@@ -62,19 +62,18 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
     val now = UInt(log2Up(k + 1) bits)
     now := 0
     for ((from, n) <- cfg.perCellSteps) when(width >= from) { now := n }
-    val value = RegNext(now) init 0
   }
 
   val banks = Vec.fill(2)(Vec.fill(cells)(Vec.fill(k)(Reg(Entry()))))
   for (bank <- banks; cell <- bank; e <- cell) e.valid.init(False)
 
   // A corner into its cell's list, in three registered steps after its input register: the corner and its list
-  // (read from the bank, or the update of the corner before it when that one has not reached the bank yet); its
-  // updated list (which entries stay ahead of it, where it goes); the list written back. Corners are at least two
-  // clocks apart after the 3x3 suppression, so the update a corner may need is always in a register by then.
-  // `ahead` (valid and at least as strong) is a prefix of the sorted list.
+  // (read from the bank, or the update of the corner before it when that one has not reached the bank yet); which
+  // entries stay ahead of it; the updated list, written back. Corners are at least two clocks apart after the 3x3
+  // suppression. `ahead` (valid and at least as strong) is a prefix of the sorted list.
   val intake = new Area {
     val cellWidth = log2Up(cells max 2)
+    val updated = Vec.fill(k)(Entry())
     // the detector's corner registered here first: its cell selects a list across a wide multiplexer
     val arriving = io.corners.stage()
     // ... by a one-hot select over (bank, cell), decoded before that register, one copy per list place (kept apart):
@@ -87,42 +86,25 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
       s.addAttribute("preserve")
       s
     }
+    /** the list places in use in this line length, a register (the length changes only between frames) */
+    val inList = Vec((0 until k).map(i => RegNext(U(i) < perCell.now) init False))
     val read = new Area {
       val c = arriving.stage()
       val bank = Reg(UInt(1 bits))
       val cellIndex = Reg(UInt(cellWidth bits))
       val list = Reg(Vec.fill(k)(Entry()))
     }
-    val inList = Vec((0 until k).map(i => U(i) < perCell.value))
-    // the comparisons and the updated list, from the registered list: entries ahead of the corner stay, the corner
-    // takes the first place after them, the rest move down one
-    val ahead = Vec((0 until k).map(i => read.list(i).valid && read.list(i).score >= read.c.score && inList(i)))
-    val fresh = Entry()
-    fresh.valid := True
-    fresh.xOffset := read.c.x.resize(b.cellShift)
-    fresh.yOffset := read.c.y.resize(b.bandShift)
-    fresh.score := read.c.score
-    val updating = Vec.fill(k)(Entry())
-    for (i <- 0 until k) {
-      val e = updating(i)
-      if (i == 0) e := fresh
-      else {
-        e := read.list(i - 1)
-        when(ahead(i - 1)) { e := fresh }
-      }
-      when(ahead(i)) { e := read.list(i) }
-      when(!inList(i)) { e := emptyEntry }
-    }
     val compare = new Area {
       val c = read.c.stage()
       val bank = RegNext(read.bank)
       val cellIndex = RegNext(read.cellIndex)
-      val updated = RegNext(updating)
+      val list = RegNext(read.list)
+      val ahead = Vec((0 until k).map(i => RegNext(read.list(i).valid && read.list(i).score >= read.c.score && inList(i))))
       val full = RegNext((0 until k).map(i => !inList(i) || read.list(i).valid).andR)
     }
     val c = compare.c
-    // the corner now in `compare` writes its cell at the end of this clock: a corner of the same cell arriving now
-    // takes that update instead of the bank's list. Compared a clock ahead (the corner in `read`, the one at the
+    // The corner in `compare` writes its cell at the end of this clock: a corner of the same cell arriving now takes
+    // that update instead of the bank's list. Compared a clock ahead (the corner in `read` against the one at the
     // input), one copy per list place (kept apart).
     val sameCell = (0 until k).map { _ =>
       val s = RegNext(read.c.valid && read.bank === bankIn && read.cellIndex === cellIn) init False
@@ -133,13 +115,30 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
       read.bank := arriving.y(b.bandShift downto b.bandShift)
       read.cellIndex := arriving.x(b.cellShift, cellWidth bits)
       for (i <- 0 until k) {
-        read.list(i) := Mux(sameCell(i), compare.updated(i),
-          MuxOH.or(selects(i), lists.map { case (bank, cell) => banks(bank)(cell)(i) }))
+        read.list(i) := Mux(sameCell(i), updated(i), MuxOH.or(selects(i), lists.map { case (bank, cell) => banks(bank)(cell)(i) }))
       }
+    }
+    val fresh = Entry()
+    fresh.valid := True
+    fresh.xOffset := c.x.resize(b.cellShift)
+    fresh.yOffset := c.y.resize(b.bandShift)
+    fresh.score := c.score
+    val list = compare.list
+    val ahead = compare.ahead
+    // Entries ahead of the corner stay, the corner takes the first place after them, the rest move down one.
+    for (i <- 0 until k) {
+      val e = updated(i)
+      if (i == 0) e := fresh
+      else {
+        e := list(i - 1)
+        when(ahead(i - 1)) { e := fresh }
+      }
+      when(ahead(i)) { e := list(i) }
+      when(!inList(i)) { e := emptyEntry }
     }
     // The list keeps k entries: the corner itself, or the weakest entry it pushes out, is deselected.
     val deselect = c.valid && compare.full
-    when(c.valid) { banks(compare.bank)(compare.cellIndex) := compare.updated }
+    when(c.valid) { banks(compare.bank)(compare.cellIndex) := updated }
     /** a corner on its way into a list */
     val busy = arriving.valid || read.c.valid || c.valid
   }
@@ -164,20 +163,16 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
       bank := band(0 downto 0)
       bandY := (band @@ U(0, b.bandShift bits)).resize(f.coordWidth)
     }
-    // A clock after the trigger the band's lists move out of their bank into registers of their own, which the
-    // choice reads without a bank multiplexer; the bank is empty again at once.
-    val copying = RegNext(trigger) init False
-    val lists = Reg(Vec.fill(cells)(Vec.fill(k)(Entry())))
-    for (list <- lists; e <- list) e.valid.init(False)
-    when(copying) {
-      lists := banks(bank)
-      for (list <- banks(bank); e <- list) e.valid := False
-    }
+    // The choice reads the band's lists in their bank, which is empty again (every winner left) before the band two
+    // later, which shares it, gets its first corner (`OrbConfig.budgetService` checks that the emission is that
+    // fast). The first choice starts a clock after the trigger, when the bank is chosen.
+    val choosing = RegNext(trigger) init False
+    val lists = banks(bank)
     // The winner that comes first in raster order (row offset, then cell, then column; without its score), in
     // registered steps
     // within the pace, one comparison each: pairs of a cell's entries, the cell's first, pairs of cells, the band's
     // first; at the next step it leaves and its entry is emptied, in time for the next winner's first step (the
-    // first step is the clock after the copy).
+    // first step is the clock after the trigger).
     case class Candidate() extends Bundle {
       val valid = Bool()
       val key = UInt(b.bandShift + log2Up(cells max 2) + b.cellShift bits)
@@ -189,20 +184,21 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
     /** the first of `cs`, a register after every level of comparisons */
     def firstOf(cs: Seq[Candidate]): Candidate =
       if (cs.size == 1) cs.head else firstOf(cs.grouped(2).map(p => RegNext(p.reduce(earlier))).toSeq)
+    // the entries of the emitted bank registered first (the bank chosen), then the comparisons
     val candidates = lists.zipWithIndex.map { case (list, cell) =>
       list.zipWithIndex.map { case (e, i) =>
         val cand = Candidate()
         cand.valid := e.valid
         cand.key := e.yOffset @@ U(cell, log2Up(cells max 2) bits) @@ e.xOffset
         cand.place := B(BigInt(1) << (cell * k + i), cells * k bits)
-        cand
+        RegNext(cand)
       }
     }
     val first = firstOf(candidates.map(c => firstOf(c.toSeq)).toSeq)
-    val steps = log2Up(k) + log2Up(cells)
+    val steps = 1 + log2Up(k) + log2Up(cells)
     require(steps + 1 <= FeatureBudget.winnerClocks, "a winner leaves in its pace")
     val out = Flow(HarrisCorner(f, h))
-    val now = busy && pace === steps && !copying
+    val now = busy && pace === steps && !choosing
     out.valid := now && first.valid
     out.x := ((first.key.resize(log2Up(cells max 2) + b.cellShift)).resize(f.coordWidth))
     out.y := bandY + first.key(first.key.getWidth - 1 downto first.key.getWidth - b.bandShift).resize(f.coordWidth)
@@ -212,10 +208,12 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
     when(busy) {
       pace := Mux(pace === FeatureBudget.winnerClocks - 1, U(0, pace.getWidth bits), pace + 1)
     }
-    when(trigger || copying) { pace := 0 }
+    when(trigger || choosing) { pace := 0 }
     when(now) {
       when(first.valid) {
-        for ((e, place) <- lists.flatMap(_.toSeq).zipWithIndex) when(first.place(place)) { e.valid := False }
+        for (bk <- 0 until 2; (e, place) <- banks(bk).flatMap(_.toSeq).zipWithIndex) {
+          when(bank === bk && first.place(place)) { e.valid := False }
+        }
       } otherwise {
         busy := False
       }
@@ -360,13 +358,16 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
       cut.level := hitLevel
       cut.remainder := hitNeed.resize(BudgetConfig.targetWidth)
     }
-    when(last) {
+    // a clock after the last level's count arrived: by then `found` holds its comparison too (no comparison waits
+    // for the RAM's data here)
+    val done = RegNext(last) init False
+    when(done) {
       phase := Phase.run
       cut.taken := 0
       cut.atCut := 0
       when(good) {
         cut.history := True
-        when(!(found || reaches)) {
+        when(!found) {
           cut.level := 0
           cut.remainder := io.target
         }
@@ -384,7 +385,9 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
   val counters = new Area {
     val deselected = Reg(UInt(f.counterWidth bits)) init 0
     val dropped = Reg(UInt(f.counterWidth bits)) init 0
-    deselected := deselected + U(intake.deselect).resize(f.counterWidth) + U(decide.deselect).resize(f.counterWidth)
+    // the clock's deselections registered where they arise, counted a clock later
+    val deselectNow = RegNext(U(intake.deselect).resize(2) + U(decide.deselect).resize(2)) init 0
+    deselected := deselected + deselectNow.resize(f.counterWidth)
     dropped := dropped + frameEnd.dropped
   }
   io.deselected := counters.deselected
@@ -404,5 +407,5 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
 object FeatureBudget {
   /** Clocks between two winners leaving a bank: the registered steps that choose one, and the histogram's read, its
     * registered data, the write back. */
-  val winnerClocks: Int = 5
+  val winnerClocks: Int = 6
 }

@@ -20,9 +20,10 @@ case class HarrisStages(sobel: Int = 1, sobelDiff: Int = 2, products: Int = 4, c
     "each step needs the previous one's registered result: node indices must strictly increase")
   require(segmentCompare >= 0 && segmentArc > segmentCompare && segmentArc <= response,
     "the segment test compares, then combines arcs a node later, at the latest where the score is formed")
-  /** the window column arrives `RowWindow.latency` nodes after it is read (through the RAM's output register); the
-    * corner leaves one node later */
-  def suppress: Int = suppressRead + RowWindow.latency
+  /** the window column arrives `RowWindow.latency` nodes after it is read (through the RAM's output register) and is
+    * registered once more before it is compared; the corner leaves one node later */
+  def window: Int = suppressRead + RowWindow.latency
+  def suppress: Int = window + 1
   def output: Int = suppress + 1
   /** clocks from a column at the input to the corner it completes at the output */
   def latency: Int = output
@@ -182,7 +183,7 @@ class HarrisDetector(f: FrameConfig, h: HarrisConfig, columnRows: Int, stages: H
   val suppress = new Area {
     val read = at(stages.suppressRead)
     val scores = new RowWindow(RowWindowConfig(3, f.maxWidth, h.scoreWidth))
-    val WINDOW = at(stages.suppress).insert(scores.column(read.isValid, read(PIXEL).x, read(response.SCORE).asBits))
+    val WINDOW = at(stages.window).insert(scores.column(read.isValid, read(PIXEL).x, read(response.SCORE).asBits))
     val n = at(stages.suppress)
     val cols = lastValid(Vec(n(WINDOW).map(_.asUInt)), 3, n.isValid) // 0: column x, 1: x-1 (centre), 2: x-2
     // Row 0 is the newest (below the centre), row 2 the oldest (above).

@@ -149,12 +149,21 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
     val busy = Reg(Bool()) init False
     val group = Reg(UInt(groupWidth + 1 bits)) init 0
     val live = Reg(Entry())
-    val issuing = busy && group < groups
-    when(issuing) { group := group + 1 }
+    /** a group is read now (`busy` and `group < groups`), a register: whether the group read now is the last one is
+      * compared a clock ahead */
+    val issuing = Reg(Bool()) init False
+    val lastGroup = Reg(Bool()) init False
+    when(issuing) {
+      group := group + 1
+      issuing := !lastGroup
+      lastGroup := group + 2 === groups
+    }
     val start = item.fire && !frame.keyNow && !item.frameEnd
     when(start) {
       busy := True
       group := 0
+      issuing := groups =/= 0
+      lastGroup := groups === 1
     }
     // copied every clock while idle (an enable from one register, not from the handshake): the feature that starts
     // the scan is the last one copied
@@ -333,12 +342,19 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
     val mergeLevels = log2Up(P)
     val mergedValid = Delay(outValid, mergeLevels, init = False)
     val mergedGroup = Delay(outGroup, mergeLevels)
-    val mergedFirst = mergedValid && mergedGroup === 0
+    // The running best starts as "none" when a scan starts (long before its first group arrives): the first group
+    // then takes it over in the same merge as every later one (its entry 0 is real), no choice of the first.
     val acc = Reg(Best())
-    when(mergedValid) { acc := Mux(mergedFirst, merged, merge(acc, merged)) }
+    when(scan.start) {
+      acc.best.distance := none
+      acc.best.index := 0
+      acc.best.wins := False
+      acc.second := none
+    }
+    when(mergedValid) { acc := merge(acc, merged) }
     // the best entry's position, a clock behind `acc`
     val accKey = Reg(Key())
-    val accTakes = RegNext(mergedValid && (mergedFirst || takes(acc, merged))) init False
+    val accTakes = RegNext(mergedValid && takes(acc, merged)) init False
     when(accTakes) { accKey := mergedKey }
     val accValid = RegNext(mergedValid) init False
     val lastGroup = RegNext(mergedValid && mergedGroup === (groups - 1).resize(groupWidth)) init False

@@ -2,7 +2,6 @@ package orb
 
 import spinal.core._
 import spinal.lib._
-import spinal.lib.misc.pipeline._
 import Arith._
 
 /** A corner with its intensity moments and orientation bin. */
@@ -21,15 +20,19 @@ case class OrientedCorner(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfi
   val end = FrameEndInfo()
 }
 
-/** Orientation by intensity centroid (OpenCV's IC_Angle) without storing any patch.
+/** Orientation by intensity centroid (OpenCV's IC_Angle) without storing any patch or keeping any per-corner state
+  * while its disc passes.
   *
-  * A corner (cx, cy) waits in a queue until the raw column stream reaches row cy + 15: then the shared raw line
-  * buffer (>= 31 rows) holds its whole radius-15 disc, and the columns cx-15 .. cx+15 pass one per valid pixel.
-  * For every column, sums over the rows |v| <= d around row cy are formed once (for the 10 distinct disc heights
-  * d), shared by all corners of that row; each corner, in one of `orientationSlots` slots, picks the sums of its
-  * column offset u and accumulates m01 += sum v I and, through two running sums, m10 = sum u I. The finished
-  * moments go through a pipelined binary search over the bin-boundary tangents (one multiplier per step), so one
-  * corner per clock can leave. A corner that finds the queue full or no free slot is dropped and counted. */
+  * The shared raw line buffer (>= 31 rows) gives a column per valid pixel. For every column, sums over the rows
+  * |v| <= h around the row 15 rows above the newest are formed once, for the 10 distinct disc heights h: T(h) = sum
+  * I(v) and TV(h) = sum v I(v). The moments of the disc centred on every column c of that row then come out of three
+  * transposed FIR chains of 31 taps that advance with the valid pixels: tap j adds the sum of its own, fixed disc
+  * height h(15 - j) of the column passing it (a wire, no selection), so when column c + 15 passes, the chains hold
+  * m01 = sum over the disc of v I, sum T and sum j T, from which m10 = sum u I = 15 sum T - sum j T. A selected
+  * corner (cx, cy) waits in a queue until the stream is at (cx + 15, cy + 15), takes the chains' moments there, and
+  * goes through a pipelined binary search over the bin-boundary tangents. Any number of corners of a row can be
+  * oriented (corners come at least two pixels apart). A corner that finds the queue full, whose last column went by
+  * (its frame ended early) or whose last column is not processed (a fault before it) is dropped and counted. */
 class OrientationUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, columnRows: Int) extends Component {
   import OrbDescriptorConfig._
   import OrientationUnit._
@@ -66,8 +69,9 @@ class OrientationUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, c
     /** clocks from the column to the sums */
     val latency = 2 + tvLatency
     require(1 + tLatency <= latency)
-    val T = Vec(heights.map(dh => Delay(t(dh).asUInt, latency - 1 - tLatency)))
-    val TV = Vec(heights.map(dh => tv(dh - 1)))
+    // narrowed to their ranges before they fan out to the chains' taps
+    val T = Vec(heights.map(dh => Delay(t(dh).asUInt.resize(columnSumWidth), latency - 1 - tLatency)))
+    val TV = Vec(heights.map(dh => tv(dh - 1).resize(weightedSumWidth)))
     val valid = Delay(io.columns.valid, latency, init = False)
     val x = Delay(io.columns.pixel.x, latency)
     val y = Delay(io.columns.pixel.y, latency)
@@ -84,27 +88,13 @@ class OrientationUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, c
     val frameNow = Mux(frameStart, frame + 1, frame)
     when(valid && x === 0) { rowCount := rowCount + 1 }
     when(frameStart) { frame := frameNow }
-    /** the disc height of column u, one-hot over `heights` (a slot selects its sums with an AND-OR, no mux tree) */
-    def heightOnehot(k: Int): Bits = B(BigInt(1) << heights.indexOf(vmax(k.abs)), heights.size bits)
-    /** the disc height of the column after u, one-hot over `heights` (a slot selects its sums with an AND-OR, no
-      * mux tree), looked up in a table indexed by u's bits (no adder, no comparison) */
-    def heightAfter(u: SInt): Bits = {
-      val table = Vec((0 until (1 << u.getWidth)).map { bits =>
-        val v = if (bits >= (1 << (u.getWidth - 1))) bits - (1 << u.getWidth) else bits
-        if (v >= -R && v < R) heightOnehot(v + 1) else B(0, heights.size bits)
-      })
-      table(u.asUInt)
-    }
   }
 
-  // The beat one clock after `sums`: the slots accumulate on it, so that the start decision (queue head against the
-  // stream position, free-slot choice) is registered before it reaches the adders.
+  // The beat one clock after `sums`: the chains add its sums.
   val beat = new Area {
     val T = RegNext(sums.T)
     val TV = RegNext(sums.TV)
     val valid = RegNext(sums.valid) init False
-    val frameStart = RegNext(sums.frameStart) init False
-    val active = RegNext(sums.active)
     val keyframe = RegNext(sums.keyframe)
     val ends = RegNext(sums.ends) init False
     val end = RegNext(sums.end)
@@ -112,191 +102,112 @@ class OrientationUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, c
     val frameNow = RegNext(sums.frameNow)
   }
 
-  // Slots: a corner starts when the stream is at (cx - R, cy + R) and leaves after (cx + R, cy + R).
-  // The queue's head through a register: a RAM's output is too slow to decide on in the same clock.
-  // Its start position is computed as it loads (corners lie at least `border` > R from the left edge).
+  // The chains: tap j (0 .. 2R) adds the sums of the column R - j columns right of a disc's centre when the disc's
+  // last column passes tap 0. On a valid beat every tap takes its right neighbour's value plus its own column sum, so
+  // after the beat of column c + R, tap 0 holds the sums over the columns c - R .. c + R. `ts` is a second chain over
+  // the first one's taps: sum j T(h(R - j)) of the column j beats back, the weight of a column growing by one per
+  // beat it waits.
+  val chains = new Area {
+    val taps = 2 * R + 1
+    /** each group of `chainGroup` taps advances by its own copy of the beat's valid (kept apart) */
+    val advance = (0 until (taps + chainGroup - 1) / chainGroup).map { _ =>
+      val a = RegNext(sums.valid) init False
+      a.addAttribute("preserve")
+      a
+    }
+    def heightOf(j: Int): Int = sums.heights.indexOf(vmax((R - j).abs))
+    // each tap as wide as the most it can hold: the columns from it to the chain's end
+    def columnT(j: Int): BigInt = BigInt(2 * vmax((R - j).abs) + 1) * 255
+    def columnTV(j: Int): BigInt = BigInt(vmax((R - j).abs)) * (vmax((R - j).abs) + 1) / 2 * 255
+    val tMax = (0 until taps).map(j => (j until taps).map(columnT).sum)
+    val tsMax = (0 until taps).map(j => (j + 1 until taps).map(tMax).sum)
+    val tvMax = (0 until taps).map(j => (j until taps).map(columnTV).sum)
+    val t = (0 until taps).map(j => Reg(UInt(log2Up(tMax(j) + 1) bits)))
+    val ts = (0 until taps).map(j => Reg(UInt(log2Up(tsMax(j) + 1) max 1 bits)))
+    val tv = (0 until taps).map(j => Reg(SInt(log2Up(tvMax(j) + 1) + 1 bits)))
+    for (j <- 0 until taps) {
+      when(advance(j / chainGroup)) {
+        if (j == taps - 1) {
+          t(j) := beat.T(heightOf(j)).resize(t(j).getWidth)
+          ts(j) := 0
+          tv(j) := beat.TV(heightOf(j)).resize(tv(j).getWidth)
+        } else {
+          t(j) := t(j + 1).resize(t(j).getWidth) + beat.T(heightOf(j)).resize(t(j).getWidth)
+          ts(j) := ts(j + 1).resize(ts(j).getWidth) + t(j + 1).resize(ts(j).getWidth)
+          tv(j) := tv(j + 1).resize(tv(j).getWidth) + beat.TV(heightOf(j)).resize(tv(j).getWidth)
+        }
+      }
+    }
+    require(t.head.getWidth <= acc1Width && ts.head.getWidth <= acc2Width && tv.head.getWidth <= momentWidth)
+  }
+
+  // The queue's head, through a register (a RAM's output is too slow to decide on in the same clock), with the
+  // position of its last column computed as it loads.
   case class Waiting() extends Bundle {
     val corner = HarrisCorner(f, h)
-    val startX, startY = UInt(cw bits)
+    val lastX, lastY = UInt(cw bits)
   }
-  // The queue's RAM read through a register first (its output register), then the start position.
   val popped = queue.io.pop.m2sPipe(flush = sums.frameStart)
   val head = popped.map { c =>
     val w = Waiting()
     w.corner := c
-    w.startX := c.x - R
-    w.startY := c.y + R
+    w.lastX := c.x + R
+    w.lastY := c.y + R
     w
   }.m2sPipe(flush = sums.frameStart)
   // The head against the stream position, compared a clock ahead (the position `sums` shows next) into registers. A
-  // head loaded in the last clock has no comparisons of its own yet and waits a clock: its start is at least two
-  // pixels after the head before it (the 3x3 suppression), and corners reach the queue rows before their start.
+  // head loaded in the last clock has no comparisons of its own yet and waits a clock: its last column is at least
+  // two pixels after the head before it (the 3x3 suppression), and corners reach the queue rows before it.
   val ahead = new Area {
     val x = Delay(io.columns.pixel.x, sums.latency - 1)
     val y = Delay(io.columns.pixel.y, sums.latency - 1)
-    val at = RegNext(y === head.startY && x === head.startX) init False
-    val past = RegNext(y > head.startY || (y === head.startY && x > head.startX)) init False
+    val at = RegNext(y === head.lastY && x === head.lastX) init False
+    val past = RegNext(y > head.lastY || (y === head.lastY && x > head.lastX)) init False
     /** the head is the one the comparisons were made with */
     val compared = RegNext(head.valid && !head.ready) init False
   }
-  val startHere = sums.valid && head.valid && ahead.compared && ahead.at
-  val slots = for (s <- 0 until d.orientationSlots) yield new Area {
-    val busy = Reg(Bool()) init False
-    val corner = Reg(HarrisCorner(f, h))
-    val u = Reg(SInt(6 bits))
-    val height = Reg(Bits(sums.heights.size bits)) // the disc height of column u, one-hot, looked up a clock early
-    val acc1 = Reg(UInt(acc1Width bits))
-    val acc2 = Reg(UInt(acc2Width bits))
-    val m01 = Reg(SInt(momentWidth bits))
-  }
-  // The start decision is registered before it reaches the slots: the chosen slot accumulates the beat of its first
-  // column with zero sums (no adder waits for the decision, only a registered select). Starts are at least two
-  // pixels apart after the 3x3 suppression, so a slot is never chosen twice in one clock.
-  // The free slot is chosen a clock ahead, from the slots' next busy flags: a slot chosen at the last decision is
-  // not busy yet then, but no start follows a start in the next clock.
-  val starting = Vec(slots.map(_ => Reg(Bool()) init False))
-  val freeNext = Vec(slots.map(slot => !slot.busy.getAheadValue()))
-  val chosen = RegNext(OHMasking.first(freeNext.asBits)) init 0
-  val anyFree = RegNext(freeNext.orR) init False
-  val startOk = startHere && anyFree
-  val slotDrop = startHere && !anyFree
-  val startCorner = RegNextWhen(head.corner, startOk)
-  for (i <- slots.indices) starting(i) := startOk && chosen(i)
-  head.ready := startHere || (head.valid && sums.valid && ahead.compared && ahead.past)
-  val staleDrop = head.fire && !startHere // its start column went by (a frame ended early, or the queue was late)
-  // A new frame: what is still queued or accumulating belongs to a frame that ended before its rows came.
+  // When `sums` shows the head's last column: the chains add it a clock later (at the beat) and hold the head's
+  // moments the clock after that. Emitted only when that column was processed (no fault before it in the frame).
+  val finishHere = sums.valid && head.valid && ahead.compared && ahead.at
+  head.ready := finishHere || (head.valid && sums.valid && ahead.compared && ahead.past)
+  val staleDrop = head.fire && !finishHere // its last column went by (a frame ended early, or the queue was late)
+  val faultDrop = finishHere && !sums.active
+  // A new frame: what is still queued belongs to a frame that ended before its rows came.
   queue.io.flush := sums.frameStart
-  // (a corner pushed on that very clock is lost with the flush, so it counts too; the slots are cleared a clock
-  // later, with the beat, and counted then)
-  /** the most corners one clock can drop: the queue and its two head registers flushed, the one pushed then, the
-    * slots */
-  val dropWidth = log2Up(d.cornerQueueDepth + 3 + d.orientationSlots + 4 + 1)
-  // What a frame start flushes is registered first (the queue's count, the slots' busy flags) and counted in the
-  // clocks after (see `dropsNow`): the slots lie apart, and their count is no path of the frame start's clock.
+  /** the most corners one clock can drop: the queue and its two head registers flushed, the one pushed then, one
+    * more */
+  val dropWidth = log2Up(d.cornerQueueDepth + 3 + 4 + 1)
+  // What a frame start flushes is registered first and counted in the clocks after (see `dropsNow`).
   val queueFlushed = RegNext(Mux(sums.frameStart,
     queue.io.occupancy.resize(dropWidth) + U(io.corners.valid).resize(dropWidth) + U(popped.valid).resize(dropWidth) +
       U(head.valid).resize(dropWidth),
     U(0, dropWidth bits))) init 0
-  val slotsBusy = Vec(slots.zip(starting).map { case (sl, st) => sl.busy || st }).asBits
-  val slotsFlushed = RegNext(Mux(beat.frameStart, slotsBusy, B(0, slots.size bits))) init 0
 
-  val heightOfFirst = sums.heightOnehot(-R)
-  // Each slot picks its column's sums (by the column's disc height) into registers of its own, then accumulates them a
-  // clock later: the wide sums fan out to the slots' selections, and no adder waits for a selection.
-  case class Pick() extends Bundle {
-    val valid, first, last, active, frameStart = Bool()
-    val t = UInt(sumWidth bits)
-    val tv = SInt(sumWidth bits)
-  }
-  case class Patch() extends Bundle {
-    val corner = HarrisCorner(f, h)
-    val m01 = SInt(momentWidth bits)
-    val a1 = UInt(acc1Width bits)
-    val a2 = UInt(acc2Width bits)
-  }
-  /** copies of a slot's finished flag, one per `gatherChunk` bits of its patch */
-  val gatherCopies: Int = (Patch().getBitsWidth + gatherChunk - 1) / gatherChunk
-  val accumulate = for ((slot, i) <- slots.zipWithIndex) yield new Area {
-    val first = starting(i)
-    // An idle slot holds its first column's position and height (an enable from its own register, not from the
-    // start decision); the first column's advance below takes over.
-    when(!slot.busy) {
-      slot.u := -R
-      slot.height := heightOfFirst
-    }
-    val u = slot.u
-    val last = u === R
-    val advancing = beat.valid && (slot.busy || first)
-    when(first) { slot.corner := startCorner }
-    when(beat.frameStart) {
-      slot.busy := False
-    } elsewhen (advancing) {
-      slot.u := u + 1
-      slot.height := sums.heightAfter(u)
-      slot.busy := !last
-    }
-    val pick = Pick()
-    pick.valid := advancing && !beat.frameStart
-    pick.first := first
-    pick.last := last
-    pick.active := beat.active
-    pick.frameStart := beat.frameStart
-    pick.t := MuxOH.or(slot.height.asBools, beat.T)
-    pick.tv := MuxOH.or(slot.height.asBools, beat.TV)
-    val picked = RegNext(pick)
-    picked.valid.init(False)
-    val p = picked
-    val acc1 = Mux(p.first, U(0, acc1Width bits), slot.acc1)
-    val acc2 = Mux(p.first, U(0, acc2Width bits), slot.acc2)
-    val m01 = Mux(p.first, S(0, momentWidth bits), slot.m01)
-    when(p.valid) {
-      slot.acc1 := acc1 + p.t.resize(acc1Width)
-      // the running sum of the columns before this one (a2 lags a column behind): no adder waits for acc1's
-      slot.acc2 := acc2 + acc1.resize(acc2Width)
-      slot.m01 := m01 + p.tv.resize(momentWidth)
-    }
-    // The last column completes the patch: emitted (from the registers, a clock later) only if no fault came
-    // before it in the frame. One copy of the flag per `gatherChunk` bits of the patch (kept apart): each selects
-    // its own part of the patch in the gather, no flag fans out to the whole patch.
-    val emitNow = p.valid && p.last && p.active
-    val emit = RegNext(emitNow) init False
-    val emitCopies = Vec.fill(gatherCopies)(RegNext(emitNow) init False)
-    emitCopies.addAttribute("preserve")
-  }
-  // The finished patch, a clock after its last column: m10 = 16 a1 - a2 = 15 a1 - a2' (a2' = acc2, a column
-  // behind) is formed in the stage after.
+  // The finished corner, a clock after its last column's beat: m10 = sum u I = R sum T - sum j T, formed in the
+  // stage after.
   case class Finished() extends Bundle {
     val oriented = OrientedCorner(f, h, d)
-    val a1 = UInt(acc1Width bits)
-    val a2 = UInt(acc2Width bits)
+    val t = UInt(acc1Width bits)
+    val ts = UInt(acc2Width bits)
   }
-  val emits = accumulate.map(_.emit)
-  val patches = slots.map { slot =>
-    val p = Patch()
-    p.corner := slot.corner
-    p.m01 := slot.m01
-    p.a1 := slot.acc1
-    p.a2 := slot.acc2
-    p
-  }
-  // At most one slot finishes per pixel (finishing corners are at distinct x of one row): a one-hot selection, in
-  // two registered levels (the slots lie apart): each pair of slots, then the pairs. Each part of the patch is
-  // selected by its own copy of the slots' flags.
-  /** each slot's patch in parts of `gatherChunk` bits, each ANDed with its own copy of the slot's flag */
-  val masked = slots.indices.map { i =>
-    patches(i).asBits.subdivideIn(gatherChunk bits, strict = false).toSeq.zipWithIndex.map { case (part, j) =>
-      part & B(part.getWidth bits, default -> accumulate(i).emitCopies(j))
-    }
-  }
-  val pairs = slots.indices.grouped(2).toIndexedSeq.map { k =>
-    val parts = masked(k.head).indices.map(j => RegNext(k.map(i => masked(i)(j)).reduce(_ | _)))
-    val p = Patch()
-    p.assignFromBits(parts.reverse.reduce(_ ## _))
-    (RegNext(k.map(emits).orR) init False, p)
-  }
-  val emitted = pairs.map(_._1).orR
-  // a pair's part is zero unless one of its slots finished: the pairs are simply ORed
-  val patch = Patch()
-  patch.assignFromBits(pairs.map(_._2.asBits).reduce(_ | _))
-  val beatD = new Area {
-    /** clocks from the beat of a patch's last column to the gathered patch: the pick, the slot's finished flag, the
-      * pairs' level */
-    val gatherClocks = 3
-    // The beat of the last column (with its patch), in row cy + R; the descriptor's 37 smoothed rows are complete
-    // when row cy + 22 starts.
-    val startRow = Delay(beat.rowNow + (OrbDescriptorConfig.startRowOffset - R), gatherClocks)
-    val frameTag = Delay(beat.frameNow, gatherClocks)
-    val keyframe = Delay(beat.keyframe, gatherClocks)
-    val ends = Delay(beat.valid && beat.ends, gatherClocks, init = False)
-    val end = Delay(beat.end, gatherClocks)
-  }
-  // A frame's end follows its corners: no corner of a good frame finishes on its last pixel (the last corners
-  // finish 7 rows earlier), and on a fault no corner finishes (it would be dropped).
   val finishing = Flow(Finished())
-  finishing.valid := emitted || beatD.ends
+  val emit = Delay(finishHere && sums.active, 2, init = False)
+  val finishedCorner = RegNextWhen(head.corner, finishHere)
+  val beatD = new Area {
+    // The beat of the last column, in row cy + R; the descriptor's 37 smoothed rows are complete when row cy + 22
+    // starts.
+    val startRow = RegNext(beat.rowNow + (OrbDescriptorConfig.startRowOffset - R))
+    val frameTag = RegNext(beat.frameNow)
+    val keyframe = RegNext(beat.keyframe)
+    val ends = RegNext(beat.valid && beat.ends) init False
+    val end = RegNext(beat.end)
+  }
+  // A frame's end follows its corners: no corner of a good frame finishes on its last pixel (the last corners finish
+  // 7 rows earlier), and on a fault no corner finishes (it would be dropped).
+  finishing.valid := emit || beatD.ends
   val o = finishing.oriented
-  o.corner := patch.corner
-  o.m01 := patch.m01
+  o.corner := finishedCorner
+  o.m01 := chains.tv(0).resize(momentWidth)
   o.m10.assignDontCare()
   o.bin.assignDontCare()
   o.startRow := beatD.startRow
@@ -304,40 +215,45 @@ class OrientationUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, c
   o.keyframe := beatD.keyframe
   o.frameEnd := beatD.ends
   o.end := beatD.end
-  finishing.a1 := patch.a1
-  finishing.a2 := patch.a2
+  finishing.t := chains.t(0).resize(acc1Width)
+  finishing.ts := chains.ts(0).resize(acc2Width)
   val moments = finishing.stage().map { p =>
     val o = OrientedCorner(f, h, d)
     o := p.oriented
-    o.m10.allowOverride() := ((p.a1.resize(momentWidth) |<< 4) - p.a1.resize(momentWidth) - p.a2.resize(momentWidth)).asSInt
+    o.m10.allowOverride() := constMulSigned(p.t.resize(momentWidth).asSInt, R, momentWidth) - p.ts.resize(momentWidth).asSInt
     o
   }
   val bins = new AngleSearch(f, h, d)
   bins.io.input << moments.stage()
   io.oriented << bins.io.output
 
-  val faultDrop = slots.map(slot => slot.busy && slot.u === R).orR && beat.valid && !beat.frameStart && !beat.active
   // The clock's drops registered where they arise, summed into a register of their own, then counted (the counter
   // lags the drops by three clocks).
-  val singleDrops = RegNext(Vec(queueDrop, slotDrop, staleDrop, faultDrop).asBits) init 0
-  val dropsNow = RegNext(CountOne(singleDrops).resize(dropWidth) + CountOne(slotsFlushed).resize(dropWidth) +
-    queueFlushed) init 0
+  val singleDrops = RegNext(Vec(queueDrop, staleDrop, faultDrop).asBits) init 0
+  val dropsNow = RegNext(CountOne(singleDrops).resize(dropWidth) + queueFlushed) init 0
   val drops = Reg(UInt(f.counterWidth bits)) init 0
   drops := drops + dropsNow.resize(f.counterWidth)
   io.dropped := drops
 }
 
 object OrientationUnit {
-  // Column sums of up to 31 pixels: 13 bits; v-weighted sums up to 255 * (1 + .. + 15) = 30600 per side: 16 bits signed.
-  val sumWidth: Int = 17
-  val acc1Width: Int = 18 // 31 columns of 13-bit sums
-  val acc2Width: Int = 23 // 31 partial sums of acc1
+  private val r = OrbDescriptorConfig.patchRadius
+  /** a column's sum over its disc height: at most 2r + 1 pixels of 255 */
+  val columnSumWidth: Int = log2Up((2 * r + 1) * 255 + 1)
+  /** a column's v-weighted sum: |sum| <= 255 * (1 + .. + r), signed */
+  val weightedSumWidth: Int = log2Up(255 * r * (r + 1) / 2 + 1) + 1
+  /** the column sums' working width, signed, for both kinds */
+  val sumWidth: Int = (columnSumWidth + 1) max weightedSumWidth
+  /** sum T over a disc: 2r + 1 column sums */
+  val acc1Width: Int = log2Up((2 * r + 1) * ((2 * r + 1) * 255) + 1)
+  /** sum j T over a disc, j = 0 .. 2r */
+  val acc2Width: Int = log2Up(r * (2 * r + 1) * ((2 * r + 1) * 255) + 1)
   /** |m10|, |m01| <= 255 * sum |u| over the disc < 2^21 */
   val momentWidth: Int = 24
   /** rows counted since reset, wrapping: only differences of a few rows are ever used */
   val rowCountWidth: Int = 12
   /** frames counted since reset, wrapping: tells a corner's frame from the next few */
   val frameTagWidth: Int = 4
-  /** bits of a finished patch selected by one copy of its slot's flag in the gather */
-  val gatherChunk: Int = 16
+  /** taps of the moment chains that share one copy of the beat's valid */
+  val chainGroup: Int = 4
 }

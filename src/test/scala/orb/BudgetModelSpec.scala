@@ -58,8 +58,6 @@ class BudgetModelSpec extends AnyFunSuite {
     assert(config.budgetService(config.maxWidth, 4 * b.perCell).isDefined)
     val tooDense = intercept[IllegalArgumentException](config.copy(budget = b.copy(cellWidth = 64)))
     assert(tooDense.getMessage.contains("cannot serve"))
-    // the orientation slots and the queues the budget's density needs
-    assert(config.descriptor.orientationSlots >= 2 * b.perCell)
   }
 
   test("features per frame on every photograph in data/: min(target, cell winners) from the second processed frame") {

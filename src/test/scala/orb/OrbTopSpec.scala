@@ -86,10 +86,10 @@ class OrbTopSpec extends AnyFunSuite {
   }
 
   test("registers: ID, read back of every parameter") {
-    import OrbTop.Registers._
+    import RegisterMap._
     top.doSim("registers", seed.toInt) { dut =>
       val (bus, _) = TopSim.start(dut, CornerParams(12345, Some(37), 321), MatchParams(hammingThreshold = 77, ratio = Some(200), crossCheck = true), 1.0, rng("regs"))
-      assert(bus.read(ID) == OrbTop.id.toLong)
+      assert(bus.read(ID) == RegisterMap.id.toLong)
       assert(bus.read(HARRIS_THRESHOLD) == 12345 && bus.read(SEGMENT_THRESHOLD) == 37 && bus.read(HAMMING_THRESHOLD) == 77 &&
         bus.read(RATIO) == 200 && bus.read(CONTROL) == 7 && bus.read(TARGET) == 321 && bus.read(DESELECTED) == 0)
       bus.write(CONTROL, 0)

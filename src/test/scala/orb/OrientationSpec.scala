@@ -33,6 +33,34 @@ class OrientationHarness(c: OrbConfig) extends Component {
   io.dropped := orientation.io.dropped
 }
 
+/** Tracker, line buffer, Harris detector and the orientation unit with no budget in between: every corner goes on. */
+class DenseOrientationHarness(c: OrbConfig) extends Component {
+  val rows = 2 * OrbDescriptorConfig.patchRadius + 1
+  val io = new Bundle {
+    val pixels = slave Flow (PixelBeat())
+    val control = in(CornerControl())
+    val oriented = master Flow (OrientedCorner(c.frame, c.harris, c.descriptor))
+    val dropped = out UInt (32 bits)
+  }
+  val tracker = new FrameTracker(c.frame)
+  val lines = new LineBuffer(c.frame, rows)
+  val harris = new HarrisDetector(c.frame, c.harris, rows)
+  val orientation = new OrientationUnit(c.frame, c.harris, c.descriptor, rows)
+  tracker.io.pixels << io.pixels
+  lines.io.pixels << tracker.io.tracked
+  harris.io.columns << lines.io.columns
+  harris.io.geometry := tracker.io.geometry
+  harris.io.control := io.control
+  orientation.io.columns << lines.io.columns
+  orientation.io.corners << harris.io.corners
+  io.oriented << orientation.io.oriented
+  io.dropped := orientation.io.dropped
+}
+
+/** The ports either harness drives. */
+final case class OrientationDut(pixels: Flow[PixelBeat], control: CornerControl, oriented: Flow[OrientedCorner],
+                                dropped: UInt, clockDomain: ClockDomain)
+
 class OrientationSpec extends AnyFunSuite {
   import TestSupport._
   lazy val harness = {
@@ -40,27 +68,34 @@ class OrientationSpec extends AnyFunSuite {
     CoreSim.simConfig("simWorkspace/test").compile(new OrientationHarness(config))
   }
 
-  def check(name: String, img: GrayImage, blanking: Blanking): Unit = {
+  /** a queue deep enough for every Harris corner of the test frames, with no budget in front */
+  val denseConfig: OrbConfig = config.copy(descriptor = config.descriptor.copy(cornerQueueDepth = 4096))
+  lazy val dense = CoreSim.simConfig("simWorkspace/test").compile(new DenseOrientationHarness(denseConfig))
+
+  def check(name: String, img: GrayImage, blanking: Blanking, all: Boolean = false, p: CornerParams = cornerParams): Unit = {
     val d = config.descriptor
-    val selected = CoreModel.run(config, Beat.frame(img) ++ Beat.frame(img), cornerParams).budget.last._2.selected
+    val model = CoreModel.run(config, Beat.frame(img) ++ Beat.frame(img), p)
+    val selected = if (all) model.corners else model.budget.last._2.selected
     val expected = selected.map { c =>
       val (m10, m01) = OrbModel.moments(img, c.x, c.y)
       (c.x, c.y, c.score, m10, m01, OrbModel.angleBin(m10, m01, d))
     }
     val got = scala.collection.mutable.ArrayBuffer[(Int, Int, Long, Long, Long, Int)]()
     var dropped = -1L
-    harness.doSim(name, seed.toInt) { dut =>
-      CoreSim.idlePixels(dut.io.pixels)
-      CoreSim.control(dut.io.control, cornerParams)
+    def run(dut: OrientationDut): Unit = {
+      CoreSim.idlePixels(dut.pixels)
+      CoreSim.control(dut.control, p)
       CoreSim.startClock(dut.clockDomain)
       dut.clockDomain.onSamplings {
-        val o = dut.io.oriented
+        val o = dut.oriented
         if (o.valid.toBoolean && !o.frameEnd.toBoolean) got += ((o.corner.x.toInt, o.corner.y.toInt, o.corner.score.toLong, o.m10.toLong, o.m01.toLong, o.bin.toInt))
       }
-      CoreSim.drivePixels(dut.io.pixels, dut.clockDomain, Beat.frame(img) ++ Beat.frame(img), blanking, rng(name))
+      CoreSim.drivePixels(dut.pixels, dut.clockDomain, Beat.frame(img) ++ Beat.frame(img), blanking, rng(name))
       dut.clockDomain.waitSampling(50)
-      dropped = dut.io.dropped.toLong
+      dropped = dut.dropped.toLong
     }
+    if (all) dense.doSim(name, seed.toInt)(dut => run(OrientationDut(dut.io.pixels, dut.io.control, dut.io.oriented, dut.io.dropped, dut.clockDomain)))
+    else harness.doSim(name, seed.toInt)(dut => run(OrientationDut(dut.io.pixels, dut.io.control, dut.io.oriented, dut.io.dropped, dut.clockDomain)))
     val diffs = expected.zipAll(got, null, null).filter { case (a, b) => a != b }
     assert(diffs.isEmpty, s"$name: ${diffs.size} differ (model ${expected.size}, RTL ${got.size}); first ${diffs.take(3).mkString("; ")}")
     assert(dropped == 0, s"$name: $dropped corners dropped")
@@ -73,5 +108,17 @@ class OrientationSpec extends AnyFunSuite {
   }
   test("full-size photographs: every selected corner oriented, none dropped (aero1 640x480, no blanking)") {
     check("orient-aero1", image("aero1.png"), Blanking.none)
+  }
+  test("every Harris corner of a flood, no budget in front: any number of corners within 31 px, none dropped") {
+    // rows of dots 3 px apart: Harris maxima (no segment test) every 3 px
+    val p = cornerParams.copy(segmentThreshold = None)
+    val img = GrayImage.tabulate(160, 72)((x, y) => if (y % 8 == 4 && x % 3 == 0) 255 else 0)
+    val corners = CoreModel.run(config, Beat.frame(img) ++ Beat.frame(img), p).corners
+    // the case a slot-based unit could not serve: more than 8 corners of a row within 31 columns
+    val crowded = corners.groupBy(_.y).values.map(_.map(_.x).sorted).map { xs =>
+      xs.indices.map(i => xs.drop(i).takeWhile(_ <= xs(i) + 30).size).maxOption.getOrElse(0)
+    }.max
+    assert(crowded > 8, s"the flood should crowd a row (at most $crowded corners within 31 px)")
+    check("orient-flood", img, Blanking.none, all = true, p = p)
   }
 }

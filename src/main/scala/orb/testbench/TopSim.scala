@@ -26,12 +26,8 @@ object TopSim {
   /** A live feature's scan as the matcher decided it: best entry (store index, position), distance, second best. */
   final case class Scan(liveX: Int, liveY: Int, bestIndex: Int, keyX: Int, keyY: Int, best: Int, second: Int)
 
-  val registerNames: Seq[(String, Int)] = {
-    import OrbTop.Registers._
-    Seq("frames" -> FRAMES, "bad_frames" -> BAD_FRAMES, "bad_lines" -> BAD_LINES, "corners" -> CORNERS,
-      "features" -> FEATURES, "feature_drops" -> FEATURE_DROPS, "stored" -> STORED, "store_overflow" -> STORE_OVERFLOW,
-      "matches" -> MATCHES, "match_drops" -> MATCH_DROPS, "deselected" -> DESELECTED)
-  }
+  /** the counters by their `summary.json` names */
+  val registerNames: Seq[(String, Register)] = RegisterMap.counters.map(r => r.key -> r)
 
   /** OrbTop with the internal signals the monitor and the tracer read made visible to the simulator. */
   def compile(cfg: OrbConfig, workspace: String = "simWorkspace", wave: Boolean = false): SimCompiled[OrbTop] =
@@ -51,13 +47,13 @@ object TopSim {
   /** One Avalon-MM master in the simulation thread: single reads and writes. */
   final class Avalon(bus: AvalonMM, cd: ClockDomain) {
     def idle(): Unit = { bus.read #= false; bus.write #= false; bus.address #= 0; bus.writeData #= 0 }
-    def write(address: Int, value: Long): Unit = {
-      bus.address #= address; bus.writeData #= value; bus.write #= true
+    def write(r: Register, value: Long): Unit = {
+      bus.address #= r.address; bus.writeData #= value; bus.write #= true
       cd.waitSamplingWhere(bus.waitRequestn.toBoolean)
       bus.write #= false
     }
-    def read(address: Int): Long = {
-      bus.address #= address; bus.read #= true
+    def read(r: Register): Long = {
+      bus.address #= r.address; bus.read #= true
       cd.waitSamplingWhere(bus.waitRequestn.toBoolean)
       bus.read #= false
       if (!bus.readDataValid.toBoolean) cd.waitSamplingWhere(bus.readDataValid.toBoolean)
@@ -105,13 +101,13 @@ object TopSim {
 
   /** Inputs defined, clock and reset, then the run-time parameters written over the bus. */
   def start(dut: OrbTop, corners: CornerParams, p: MatchParams, ready: Double, rng: Random): (Avalon, Monitor) = {
-    import OrbTop.Registers._
+    import RegisterMap._
     CoreSim.idlePixels(dut.io.pixels)
     dut.io.correspondences.ready #= true
     val bus = new Avalon(dut.io.ctrl, dut.clockDomain)
     bus.idle()
     CoreSim.startClock(dut.clockDomain)
-    require(bus.read(ID) == OrbTop.id.toLong, "OrbTop's ID register")
+    require(bus.read(ID) == RegisterMap.id.toLong, "OrbTop's ID register")
     bus.write(HARRIS_THRESHOLD, corners.threshold)
     bus.write(SEGMENT_THRESHOLD, corners.segmentThreshold.getOrElse(0).toLong)
     bus.write(TARGET, corners.target.toLong)
@@ -140,7 +136,7 @@ object TopSim {
 
   def result(dut: OrbTop, bus: Avalon, monitor: Monitor, pixels: Long): TopResult =
     TopResult(monitor.featureStream.toSeq, monitor.correspondences.toSeq, monitor.corners.toSeq, monitor.oriented.toSeq,
-      monitor.scans.toSeq, registerNames.map { case (n, a) => n -> bus.read(a) }.toMap, monitor.cycles, pixels)
+      monitor.scans.toSeq, registerNames.map { case (n, r) => n -> bus.read(r) }.toMap, monitor.cycles, pixels)
 
   /** One complete run from reset. */
   def run(dut: OrbTop, cfg: OrbConfig, beats: Seq[Beat], corners: CornerParams, p: MatchParams, blanking: Blanking,

@@ -116,10 +116,7 @@ object Match {
   def runModel(o: Options, beats: Seq[Beat]): Outcome = {
     val r = SystemModel.run(o.config, beats, o.corners, o.params)
     val c = r.core
-    val counters = Seq("frames" -> c.counters.frames, "bad_frames" -> c.counters.badFrames, "bad_lines" -> c.counters.badLines,
-      "corners" -> c.cornerCount, "features" -> c.features.size.toLong, "feature_drops" -> c.featureDrops,
-      "stored" -> r.matches.store.features.size.toLong, "store_overflow" -> r.matches.overflow,
-      "matches" -> r.correspondences.size.toLong, "match_drops" -> 0L, "deselected" -> c.deselected)
+    val counters = RegisterMap.counters.map(reg => reg.key -> reg.model.get(r))
     Outcome(c.featureStream, r.lastLive, counters, None, beats.size.toLong, None)
   }
 
