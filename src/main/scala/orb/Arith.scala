@@ -63,6 +63,24 @@ object Arith {
     (current, clocks)
   }
 
+  /** A constant table read in two steps, so that no step is a deep lookup: `parts` sub-tables indexed by the low
+    * bits of the index (`words`), whose words the caller registers with the high bits (`part`), then the word of that
+    * part (`pick`). */
+  final case class SplitTable(table: Seq[BigInt], width: Int, parts: Int) {
+    require(isPow2(parts) && table.nonEmpty && table.forall(v => v >= 0 && v < (BigInt(1) << width)))
+    val partSize: Int = 1 << log2Up((table.size + parts - 1) / parts)
+    def words(index: UInt): Vec[UInt] = Vec((0 until parts).map { q =>
+      val entries = (0 until partSize).map(i => table.lift(q * partSize + i).getOrElse(BigInt(0)))
+      Vec(entries.map(v => U(v, width bits)))(index.resize(log2Up(partSize)))
+    })
+    def part(index: UInt): UInt = {
+      val low = log2Up(partSize)
+      // a slice, not a shift: plain Verilog without width warnings
+      if (index.getWidth <= low) U(0, log2Up(parts) bits) else index(index.high downto low).resize(log2Up(parts))
+    }
+    def pick(words: Vec[UInt], part: UInt): UInt = words(part)
+  }
+
   /** The last `n` values of `v` (element 0 = `v` itself), advancing only on valid pixels: the horizontal extent of
     * a window, whatever the blanking. */
   def lastValid[T <: Data](v: T, n: Int, valid: Bool): Vec[T] = History[T](v, n, valid, null.asInstanceOf[T])

@@ -140,31 +140,37 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
 
   /** cos and sin of a bin from a quarter of the table (`OrbDescriptorConfig.cosSin`): the magnitudes of the bin
     * within its quadrant, registered, then swapped and signed by the quadrant. */
-  val quarterCos = Vec(d.quarterCos.map(c => U(c, magnitudeWidth bits)))
-  /** the same table read backwards (sin of the angle within the quadrant): no subtraction before the lookup */
-  val quarterSin = Vec(d.quarterCos.reverse.map(c => U(c, magnitudeWidth bits)))
-  val quarterIndexWidth = log2Up(d.binsPerQuadrant + 1)
+  /** cos and sin of a bin from a quarter of the table (`OrbDescriptorConfig.cosSin`): the magnitudes of the bin
+    * within its quadrant (sin read from the table backwards: no subtraction), in two registered steps (the table's
+    * parts, then the part), then swapped and signed by the quadrant. */
+  val quarterIndexWidth = log2Up(d.binsPerQuadrant)
+  val cosTable = Arith.SplitTable(d.quarterCos.take(d.binsPerQuadrant).map(BigInt(_)), magnitudeWidth, DescriptorUnit.tableParts)
+  val sinTable = Arith.SplitTable(d.quarterCos.reverse.take(d.binsPerQuadrant).map(BigInt(_)), magnitudeWidth, DescriptorUnit.tableParts)
   case class CosSinLookup() extends Bundle {
     val item = ReadyCorner()
     val quadrant = UInt(2 bits)
-    val c, s = UInt(magnitudeWidth bits)
+    val cosWords, sinWords = Vec(UInt(magnitudeWidth bits), DescriptorUnit.tableParts)
+    val part = UInt(log2Up(DescriptorUnit.tableParts) bits)
   }
   def lookupCosSin(r: ReadyCorner): CosSinLookup = {
     val o = CosSinLookup()
-    val within = r.bin.resize(d.binWidth - 2).resize(quarterIndexWidth)
+    val within = r.bin.resize(quarterIndexWidth)
     o.item := r
     o.quadrant := r.bin(d.binWidth - 1 downto d.binWidth - 2)
-    o.c := quarterCos(within)
-    o.s := quarterSin(within)
+    o.cosWords := cosTable.words(within)
+    o.sinWords := sinTable.words(within)
+    o.part := cosTable.part(within)
     o
   }
   /** quadrant 0: (c, s), 1: (-s, c), 2: (-c, -s), 3: (s, -c) */
   def prepare(l: CosSinLookup): PreparedCorner = {
     val o = PreparedCorner()
     val odd = l.quadrant.lsb
+    val c = cosTable.pick(l.cosWords, l.part)
+    val s = sinTable.pick(l.sinWords, l.part)
     o.item := l.item
-    o.cos := Mux(odd, l.s, l.c)
-    o.sin := Mux(odd, l.c, l.s)
+    o.cos := Mux(odd, s, c)
+    o.sin := Mux(odd, c, s)
     o.cosNegative := l.quadrant === 1 || l.quadrant === 2
     o.sinNegative := l.quadrant.msb
     o
@@ -277,26 +283,27 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
     }
     /** The pattern as magnitudes and signs: the multipliers see only non-negative operands (no sign extension). */
     val pattern = new Area {
-      val rom = Vec((0 until groups).map { g =>
+      /** a group's points, |x| and x < 0 then |y| and y < 0 each, the first point in the low bits */
+      val fieldWidth = patternWidth + 1
+      val rom: Seq[BigInt] = (0 until groups).map { g =>
         val values = (0 until testsPerGroup).flatMap { k =>
           val t = Pattern.tests(testsPerGroup * g + k)
           Seq(t.x1, t.y1, t.x2, t.y2)
         }
         require(values.forall(_.abs < (1 << patternWidth)))
-        values.map(v => Bool(v < 0) ## U(v.abs, patternWidth bits)).reverse.reduce(_ ## _)
-      })
-      // the table read in quarters, each quarter's word registered beside it, then the quarter picked into a
-      // register that feeds only the multipliers (their input registers)
-      val valid = stepValid(stepValid(fetch.valid))
-      val index = fetch.group.resize(log2Up(groups))
-      val quarterWidth = (index.getWidth - 2) max 0
-      val quarters = (0 until 4).map { q =>
-        val entries = rom.drop(q << quarterWidth).take(1 << quarterWidth)
-        if (entries.isEmpty) B(0, rom.head.getWidth bits) else Vec(entries)(index.resize(quarterWidth))
+        values.zipWithIndex.map { case (v, i) =>
+          (BigInt(v.abs) + (if (v < 0) BigInt(1) << patternWidth else BigInt(0))) << (i * fieldWidth)
+        }.sum
       }
-      val quarterWords = step(Vec(quarters))
-      val quarter = step(index(index.high downto quarterWidth).resize(2))
-      val bits = step(quarterWords(quarter))
+      // the table read in parts, each part's word registered beside it, then the part picked into a register, then
+      // a copy of it that feeds only the multipliers (their input registers, across the chip)
+      val valid = stepValid(stepValid(stepValid(fetch.valid)))
+      val index = fetch.group.resize(log2Up(groups))
+      val table = Arith.SplitTable(rom, pointsPerGroup * 2 * fieldWidth, DescriptorUnit.tableParts)
+      val words = step(table.words(index))
+      val part = step(table.part(index))
+      val picked = step(table.pick(words, part).asBits)
+      val bits = step(picked)
       private def field(k: Int): Bits = bits(k * (patternWidth + 1), patternWidth + 1 bits)
       /** point i: |x|, x < 0, |y|, y < 0 */
       def x(i: Int): UInt = field(2 * i).resize(patternWidth).asUInt
@@ -652,7 +659,11 @@ object DescriptorUnit {
 
   /** Clocks from a corner's start to its finished descriptor beyond its read issues: the front end before the first
     * issue, and the reads, the comparison and the collection after the last. */
-  val engineLatency: Int = 21
+  val engineLatency: Int = 22
+
+  /** parts of the constant tables (the test pattern, cos and sin), each read with a small index into a register
+    * before the part is picked */
+  val tableParts: Int = 8
 
   /** copies of the front end's `advance`, each enabling a share of its registers */
   val advanceCopies: Int = 8

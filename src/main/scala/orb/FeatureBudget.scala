@@ -138,7 +138,11 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
     }
     // The list keeps k entries: the corner itself, or the weakest entry it pushes out, is deselected.
     val deselect = c.valid && compare.full
-    when(c.valid) { banks(compare.bank)(compare.cellIndex) := updated }
+    // each list written by its own registered enable (decoded a clock ahead from the corner in `read`)
+    val writes = lists.map { case (bank, cell) =>
+      RegNext(read.c.valid && read.bank === bank && read.cellIndex === cell) init False
+    }
+    for (((bank, cell), write) <- lists.zip(writes)) when(write) { banks(bank)(cell) := updated }
     /** a corner on its way into a list */
     val busy = arriving.valid || read.c.valid || c.valid
   }
@@ -195,16 +199,20 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
       }
     }
     val first = firstOf(candidates.map(c => firstOf(c.toSeq)).toSeq)
-    val steps = 1 + log2Up(k) + log2Up(cells)
-    require(steps + 1 <= FeatureBudget.winnerClocks, "a winner leaves in its pace")
+    // the choice's register levels, then the score picked by its place into a register: the winner leaves after
+    // them (its entry emptied then, a clock before the next round's entries are registered)
+    val steps = 1 + log2Up(k) + log2Up(cells) + 1
+    require(steps + 1 <= FeatureBudget.winnerClocks, "a winner leaves in its pace, its score picked a clock before")
     val out = Flow(HarrisCorner(f, h))
     val now = busy && pace === steps && !choosing
     out.valid := now && first.valid
     out.x := ((first.key.resize(log2Up(cells max 2) + b.cellShift)).resize(f.coordWidth))
     out.y := bandY + first.key(first.key.getWidth - 1 downto first.key.getWidth - b.bandShift).resize(f.coordWidth)
-    // the score is not carried through the choice (narrower selections): picked by the winner's place, which still
-    // holds it in the clock its entry is emptied
-    out.score := MuxOH.or(first.place, lists.flatMap(_.map(_.score)).toSeq)
+    // the score is not carried through the choice (narrower selections): picked by the winner's place into a
+    // register in the clock before it leaves
+    // (in each bank, the bank chosen after the register)
+    val scores = banks.map(bk => RegNext(MuxOH.or(first.place, bk.flatMap(_.map(_.score)).toSeq)))
+    out.score := Mux(bank === 1, scores(1), scores(0))
     when(busy) {
       pace := Mux(pace === FeatureBudget.winnerClocks - 1, U(0, pace.getWidth bits), pace + 1)
     }
@@ -286,9 +294,12 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
     val counting = Delay(winner.valid, 2, init = False)
     val inFlight = leading.valid || scored.valid || winner.valid || RegNext(winner.valid, init = False) || counting
     val countedLevel = Delay(level, 2)
-    when(take) {
+    // counted a clock later, from registers (the next winner is `winnerClocks` away)
+    val took = RegNext(take) init False
+    val tookAtCut = RegNext(cut.history && level === cut.level) init False
+    when(took) {
       cut.taken := cut.taken + 1
-      when(cut.history && level === cut.level) {
+      when(tookAtCut) {
         cut.atCut := cut.atCut + 1
       }
     }
@@ -339,20 +350,24 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
     val readLevel = issue
     val arrives = Delay(reading, 2, init = False)
     val arrivedLevel = Delay(readLevel, 2)
-    val last = arrives && arrivedLevel === 0
     when(phase === Phase.scan && issue =/= 0) { issue := issue - 1 }
-    // the target less the winners above the level being read, while the cut is not found (then it is > 0): the
-    // level holds the cut when its count reaches it, with no adder before that comparison
-    val reaches = histogram.data >= need
+    // The count is registered once more beside the walk's decisions (the RAM lies apart), its level and arrival with
+    // it. The target less the winners above the level being decided, while the cut is not found (then it is > 0):
+    // the level holds the cut when its count reaches it, with no adder before that comparison.
+    val count = RegNext(histogram.data)
+    val decided = RegNext(arrives) init False
+    val decidedLevel = RegNext(arrivedLevel)
+    val last = decided && decidedLevel === 0
+    val reaches = count >= need
     // the first level that reaches it goes into the cut a clock later, from registers (`found` stops the walk now)
-    val hit = RegNext(arrives && !found && good && reaches) init False
-    val hitLevel = RegNext(arrivedLevel)
+    val hit = RegNext(decided && !found && good && reaches) init False
+    val hitLevel = RegNext(decidedLevel)
     val hitNeed = RegNext(need)
-    when(arrives && !found) {
+    when(decided && !found) {
       when(good && reaches) {
         found := True
       }
-      need := need - histogram.data.resize(need.getWidth)
+      need := need - count.resize(need.getWidth)
     }
     when(hit) {
       cut.level := hitLevel
@@ -407,5 +422,5 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
 object FeatureBudget {
   /** Clocks between two winners leaving a bank: the registered steps that choose one, and the histogram's read, its
     * registered data, the write back. */
-  val winnerClocks: Int = 6
+  val winnerClocks: Int = 7
 }

@@ -55,6 +55,9 @@ class HarrisDetector(f: FrameConfig, h: HarrisConfig, columnRows: Int, stages: H
   // The run-time parameters, registered here: they come from the register file across the chip and fan out to
   // every comparator (a write takes effect a clock later; they are constant within a frame).
   val control = RegNext(io.control)
+  // The frame's geometry, registered here too (the tracker is across the chip): it changes only at a start of frame
+  // that follows a good frame of the same geometry, so no beat in flight sees another value.
+  val geometry = RegNext(io.geometry)
   val COLUMN = Payload(Vec(UInt(8 bits), HarrisConfig.rawRows))
   val PIXEL = Payload(TrackedPixel(f))
   at(0).driveFrom(io.columns) { (n, p) =>
@@ -196,8 +199,8 @@ class HarrisDetector(f: FrameConfig, h: HarrisConfig, columnRows: Int, stages: H
     // (v - reach) in [border, size - 1 - border], without unsigned wrap-around for small frames.
     def inside(v: UInt, size: UInt) = v >= h.border + reach && (v +^ h.border) < (size +^ reach)
     // The comparisons are registered (into the output node) before they are combined.
-    val TESTS = n.insert(Vec(Seq(p.active, centre > control.threshold, inside(p.x, io.geometry.width),
-      inside(p.y, io.geometry.height)) ++ earlier.map(centre > _) ++ later.map(centre >= _)))
+    val TESTS = n.insert(Vec(Seq(p.active, centre > control.threshold, inside(p.x, geometry.width),
+      inside(p.y, geometry.height)) ++ earlier.map(centre > _) ++ later.map(centre >= _)))
     val CENTRE = n.insert(centre)
     // the corner's position, the centre's, registered with the tests
     val CX = n.insert(p.x - reach)

@@ -202,10 +202,21 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
   val sweep = new Area {
     val busy = Reg(Bool()) init False
     val entry = Reg(UInt(countWidth bits)) init 0
-    val reading = busy && entry < stored && paced.sweepRoom
-    when(reading) { entry := entry + 1 }
-    when(busy && entry >= stored) { busy := False }
-    when(item.fire && item.frameEnd && !frame.keyNow) { busy := True; entry := 0 }
+    /** entry < stored, a register beside the entry (the store does not change during a live frame's sweep) */
+    val more = Reg(Bool()) init False
+    val reading = busy && more && paced.sweepRoom
+    when(reading) {
+      entry := entry + 1
+      more := entry + 1 < stored
+    }
+    when(busy && !more) {
+      busy := False
+    }
+    when(item.fire && item.frameEnd && !frame.keyNow) {
+      busy := True
+      entry := 0
+      more := stored =/= 0
+    }
     val lane = entry.resize(log2Up(P) max 1)
     val addr = groupOf(entry, groupWidth)
     /** reads whose clear has not been written yet: the next feature's scan must not read their words before */

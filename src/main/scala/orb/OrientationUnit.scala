@@ -147,7 +147,9 @@ class OrientationUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, c
     val corner = HarrisCorner(f, h)
     val lastX, lastY = UInt(cw bits)
   }
-  val popped = queue.io.pop.m2sPipe(flush = sums.frameStart)
+  // (its readiness through a register too: no decision on the head reaches the queue's RAM and pointers)
+  val buffered = queue.io.pop.s2mPipe(flush = sums.frameStart)
+  val popped = buffered.m2sPipe(flush = sums.frameStart)
   val head = popped.map { c =>
     val w = Waiting()
     w.corner := c
@@ -174,13 +176,13 @@ class OrientationUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, c
   val faultDrop = finishHere && !sums.active
   // A new frame: what is still queued belongs to a frame that ended before its rows came.
   queue.io.flush := sums.frameStart
-  /** the most corners one clock can drop: the queue and its two head registers flushed, the one pushed then, one
-    * more */
-  val dropWidth = log2Up(d.cornerQueueDepth + 3 + 4 + 1)
+  /** the most corners one clock can drop: the queue, its buffer and two head registers flushed, the one pushed then,
+    * one more */
+  val dropWidth = log2Up(d.cornerQueueDepth + 4 + 4 + 1)
   // What a frame start flushes is registered first and counted in the clocks after (see `dropsNow`).
   val queueFlushed = RegNext(Mux(sums.frameStart,
-    queue.io.occupancy.resize(dropWidth) + U(io.corners.valid).resize(dropWidth) + U(popped.valid).resize(dropWidth) +
-      U(head.valid).resize(dropWidth),
+    queue.io.occupancy.resize(dropWidth) + U(io.corners.valid).resize(dropWidth) + U(!queue.io.pop.ready).resize(dropWidth) +
+      U(popped.valid).resize(dropWidth) + U(head.valid).resize(dropWidth),
     U(0, dropWidth bits))) init 0
 
   // The finished corner, a clock after its last column's beat: m10 = sum u I = R sum T - sum j T, formed in the
