@@ -16,7 +16,7 @@ class AngleSearch(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) exten
   }
   val momentWidth = OrientationUnit.momentWidth
   val m = d.binsPerOctant
-  val tangents = orb.model.OrbModel.boundaryTangents(d)
+  val tangents = d.boundaryTangents
   val steps = Iterator.iterate(1)(_ * 2).takeWhile(_ <= m).toSeq.reverse // m, m/2, .., 1 when m is a power of 2
   val tWidth = log2Up(tangents.max + 1)
   val countWidth = log2Up(m + 1)

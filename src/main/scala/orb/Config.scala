@@ -14,6 +14,10 @@ case class FrameConfig(maxWidth: Int = 1024, maxHeight: Int = 2047, coordWidth: 
     s"coordWidth=$coordWidth cannot hold maxWidth=$maxWidth / maxHeight=$maxHeight")
   def addrWidth: Int = log2Up(maxWidth)
   def counterWidth: Int = 32
+  /** an x or y coordinate */
+  def coord(): UInt = UInt(coordWidth bits)
+  /** an event counter of the register map (wraps) */
+  def counter(): UInt = UInt(counterWidth bits)
 }
 
 /** Harris-Stephens corner detector.
@@ -219,6 +223,10 @@ case class OrbDescriptorConfig(angleBins: Int = 512, tanFracBits: Int = 18, rota
   def binsPerOctant: Int = angleBins / 8
   def binsPerQuadrant: Int = angleBins / 4
   def binWidth: Int = log2Up(angleBins)
+  /** tan of the boundary between bins j and j + 1 of the first octant, scaled 2^tanFracBits (the angle search's
+    * table) */
+  val boundaryTangents: IndexedSeq[Long] =
+    (0 until binsPerOctant).map(j => math.round(math.tan(math.toRadians((j + 0.5) * binDegrees)) * (1L << tanFracBits)))
   /** Banks of the smoothed-row store: two ring slots each (the last one alone when the count is odd). */
   def smoothedBanks: Int = (smoothedRows + 1) / 2
 
@@ -246,6 +254,9 @@ case class OrbDescriptorConfig(angleBins: Int = 512, tanFracBits: Int = 18, rota
 }
 
 object OrbDescriptorConfig {
+  /** rBRIEF tests, one bit each; OpenCV's descriptor holds them in bytes, test i in byte i / 8, bit i % 8 */
+  val descriptorBits: Int = 256
+  val descriptorBytes: Int = descriptorBits / 8
   /** Radius of OpenCV's orientation patch, and its half widths per row (`umax`, rows 0..15). */
   val patchRadius: Int = 15
   val umax: Seq[Int] = Seq(15, 15, 15, 15, 14, 14, 14, 13, 13, 12, 11, 10, 9, 8, 6, 3)
@@ -287,6 +298,9 @@ case class MatcherConfig(storeCapacity: Int = 512, comparators: Int = 4, popcoun
   require(popcountLevelsPerStage >= 1 && outputTimeout >= 1)
   require(outputDepth >= MatcherConfig.pushLatency + 2, "the output FIFO must hold the sweep's pushes in flight")
   require(defaultHammingThreshold >= 0 && defaultHammingThreshold <= 256 && defaultRatio >= 0 && defaultRatio < (2 << ratioFracBits))
+  /** the run-time parameters after reset (the registers of `OrbTop`), as the model takes them */
+  def defaultParams: orb.model.MatchParams =
+    orb.model.MatchParams(defaultHammingThreshold, if (defaultRatioTest) Some(defaultRatio) else None, defaultCrossCheck)
   def groups: Int = storeCapacity / comparators
   def ratioWidth: Int = ratioFracBits + 1
   /** clocks a live feature holds the matcher: the scan, the RAM read (address register, RAM, output register), the
@@ -301,15 +315,16 @@ case class MatcherConfig(storeCapacity: Int = 512, comparators: Int = 4, popcoun
 
 object MatcherConfig {
   /** Hamming distances 0..256, and 257 for "none" (no second entry; no live feature yet) */
-  val distanceWidth: Int = 9
-  val none: Int = 257
+  val distanceWidth: Int = log2Up(OrbDescriptorConfig.descriptorBits + 2)
+  val none: Int = OrbDescriptorConfig.descriptorBits + 1
   /** clocks from a read's address to its data: the address register (each lane's own), the RAM, its output register */
   val readLatency: Int = 3
-  /** clocks from the sweep's read of an entry to its correspondence's push into the output FIFO (a register) */
-  val pushLatency: Int = readLatency + 1
+  /** clocks from the sweep's read of an entry to its correspondence's push into the output FIFO (the entry picked
+    * from its lane into a register, then the push's register) */
+  val pushLatency: Int = readLatency + 2
   /** The popcount adds the counts of 4-bit chunks in a binary tree (a chunk's xor and count fit two LUT levels). */
   val chunkBits: Int = 4
-  val treeLevels: Int = log2Up(256 / chunkBits)
+  val treeLevels: Int = log2Up(OrbDescriptorConfig.descriptorBits / chunkBits)
   def popcountStages(m: MatcherConfig): Int = 1 + (treeLevels + m.popcountLevelsPerStage - 1) / m.popcountLevelsPerStage
 
   /** Ones in `b` (256 bits), after `popcountStages` clocks: chunk counts registered, then a register every

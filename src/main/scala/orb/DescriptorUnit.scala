@@ -5,20 +5,6 @@ import spinal.lib._
 import orb.model.DescriptorSchedule
 import orb.model.DescriptorSchedule.{groups, lanesPerPort, pointsPerGroup, testsPerGroup}
 
-/** A finished ORB feature. `descriptor(i)` is test i: byte i/8, bit i%8 of OpenCV's descriptor. With `frameEnd`
-  * set, the item is no feature but the end of a processed frame, after all of that frame's features. */
-case class OrbFeature(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) extends Bundle {
-  val x, y = UInt(f.coordWidth bits)
-  val bin = UInt(d.binWidth bits)
-  val score = UInt(h.scoreWidth bits)
-  val descriptor = Bits(256 bits)
-  /** the feature's frame is a keyframe */
-  val keyframe = Bool()
-  /** not a feature: the end of a processed frame, after all of its features (`end` says how it ended) */
-  val frameEnd = Bool()
-  val end = FrameEndInfo()
-}
-
 /** What the descriptor engine is doing. */
 object EngineState extends SpinalEnum {
   /** no corner; reading a corner's points; its descriptor is complete; its rows were overwritten before it was */
@@ -50,8 +36,8 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
   val io = new Bundle {
     val smoothed = slave Flow (SmoothedPixel(f))
     val corners = slave Flow (OrientedCorner(f, h, d))
-    val features = master Stream (OrbFeature(f, h, d))
-    val dropped = out UInt (f.counterWidth bits)
+    val features = master Stream (FeatureHw(f, h, d))
+    val dropped = out(f.counter())
   }
   val rows = d.smoothedRows
   val banks = d.smoothedBanks
@@ -114,13 +100,23 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
     bank := bankNext
     // the newest beat's write, decoded for the banks
     val writeBank = RegNext(Mux(writes, bankNext, B(0, banks bits))) init 0
-    val writeAddress = RegNext((slotNext.lsb ## (s.pixel.x - blurRadius).resize(colWidth)).asUInt)
-    val writeData = RegNext(s.smoothed)
+    // address and data, one copy per cluster of four banks (kept apart): no one register drives every bank
+    val writeClusters = (banks + 3) / 4
+    val writeAddress = Seq.fill(writeClusters) {
+      val a = RegNext((slotNext.lsb ## (s.pixel.x - blurRadius).resize(colWidth)).asUInt)
+      a.addAttribute("preserve")
+      a
+    }
+    val writeData = Seq.fill(writeClusters) {
+      val d = RegNext(s.smoothed)
+      d.addAttribute("preserve")
+      d
+    }
   }
 
   /** An oriented corner as it waits for the engine: without its moments, which only the bin needed. */
   case class ReadyCorner() extends Bundle {
-    val corner = HarrisCorner(f, h)
+    val corner = CornerHw(f, h)
     val bin = UInt(d.binWidth bits)
     val startRow = UInt(rowCountWidth bits)
     val frameTag = UInt(frameTagWidth bits)
@@ -179,7 +175,7 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
   /** The features leave through a half-rate register (`halfPipe`: valid, ready and the payload's load enable all
     * registers, so the matcher's readiness does not reach the engine's state or the 256-bit payload through logic;
     * one feature per two clocks, where they come at most one per descriptor). */
-  val output = Stream(OrbFeature(f, h, d))
+  val output = Stream(FeatureHw(f, h, d))
 
   val engine = new DescriptorEngine
 
@@ -590,11 +586,11 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
       val reads8 = delayed(r)
       val bits = Reg(Bits(testsPerGroup bits))
       val results = Vec((0 until testsPerGroup).map(t => Mux(reads8.completes(t), firsts(t) < seconds(t), bits(t))))
-      val descriptor = Reg(Bits(256 bits))
+      val descriptor = Reg(Bits(OrbDescriptorConfig.descriptorBits bits))
       when(reads8.valid) {
         bits := results.asBits
         when(reads8.last) {
-          descriptor := results.asBits ## descriptor(255 downto testsPerGroup)
+          descriptor := results.asBits ## descriptor(descriptor.high downto testsPerGroup)
           done := done + 1
           lastGroup := done === groups - 2
           when(lastGroup) {
@@ -619,7 +615,7 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
     val (enableA, addressA) = engine.portRead(b, portB = false)
     val (enableB, addressB) = engine.portRead(b, portB = true)
     def local(a: UInt): UInt = a.resize(log2Up(depth))
-    val a = ram.readWriteSync(local(Mux(w, ring.writeAddress, addressA)), ring.writeData, w || enableA, w)
+    val a = ram.readWriteSync(local(Mux(w, ring.writeAddress(b / 4), addressA)), ring.writeData(b / 4), w || enableA, w)
     val bRead = ram.readSync(local(addressB), enableB)
     engine.portA(b) := RegNext(a)
     engine.portBData(b) := RegNext(bRead)
@@ -645,7 +641,7 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
   }
   io.features << output.halfPipe()
 
-  val drops = Reg(UInt(f.counterWidth bits)) init 0
+  val drops = Reg(f.counter()) init 0
   drops := drops + U(queueDrop).resize(f.counterWidth) + U(dispatch.refuse && !dispatch.c.frameEnd).resize(f.counterWidth) +
     U(engineDrop).resize(f.counterWidth)
   io.dropped := drops

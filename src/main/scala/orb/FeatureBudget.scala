@@ -26,13 +26,13 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
   val b = cfg.budget
   val io = new Bundle {
     val pixels = slave Flow (TrackedPixel(f))
-    val corners = slave Flow (HarrisCorner(f, h))
+    val corners = slave Flow (CornerHw(f, h))
     val frameEnds = slave Flow (FrameEndInfo())
     val geometry = in(FrameGeometry(f))
     val target = in UInt (BudgetConfig.targetWidth bits)
-    val selected = master Flow (HarrisCorner(f, h))
-    val deselected = out UInt (f.counterWidth bits)
-    val dropped = out UInt (f.counterWidth bits)
+    val selected = master Flow (CornerHw(f, h))
+    val deselected = out(f.counter())
+    val dropped = out(f.counter())
   }
   val cells = b.cellsPerRow(f.maxWidth)
   val k = b.perCell
@@ -67,15 +67,18 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
   val banks = Vec.fill(2)(Vec.fill(cells)(Vec.fill(k)(Reg(Entry()))))
   for (bank <- banks; cell <- bank; e <- cell) e.valid.init(False)
 
-  // A corner into its cell's list, in three registered steps after its input register: the corner and its list
-  // (read from the bank, or the update of the corner before it when that one has not reached the bank yet); which
-  // entries stay ahead of it; the updated list, written back. Corners are at least two clocks apart after the 3x3
-  // suppression. `ahead` (valid and at least as strong) is a prefix of the sorted list.
+  // A corner into its cell's list, in four registered steps after its input register: its cell's list read from the
+  // bank (an AND-OR over the lists, into a register); the list, or the update of the corner just before it when that
+  // one writes its list in that very clock; which entries stay ahead of it; the updated list, written back. Corners
+  // are at least two clocks apart after the 3x3 suppression, so only the corner just before can still be on its way.
+  // `ahead` (valid and at least as strong) is a prefix of the sorted list.
   val intake = new Area {
     val cellWidth = log2Up(cells max 2)
     val updated = Vec.fill(k)(Entry())
     // the detector's corner registered here first: its cell selects a list across a wide multiplexer
     val arriving = io.corners.stage()
+    val arrivingBank = arriving.y(b.bandShift downto b.bandShift)
+    val arrivingCell = arriving.x(b.cellShift, cellWidth bits)
     // ... by a one-hot select over (bank, cell), decoded before that register, one copy per list place (kept apart):
     // each drives an AND-OR of its own place in every list, not a mux tree from a few address bits
     val lists = for (bank <- 0 until 2; cell <- 0 until cells) yield (bank, cell)
@@ -88,10 +91,16 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
     }
     /** the list places in use in this line length, a register (the length changes only between frames) */
     val inList = Vec((0 until k).map(i => RegNext(U(i) < perCell.now) init False))
-    val read = new Area {
+    val fetched = new Area {
       val c = arriving.stage()
-      val bank = Reg(UInt(1 bits))
-      val cellIndex = Reg(UInt(cellWidth bits))
+      val bank = RegNext(arrivingBank)
+      val cellIndex = RegNext(arrivingCell)
+      val list = Vec((0 until k).map(i => RegNext(MuxOH.or(selects(i), lists.map { case (bank, cell) => banks(bank)(cell)(i) }))))
+    }
+    val read = new Area {
+      val c = fetched.c.stage()
+      val bank = RegNext(fetched.bank)
+      val cellIndex = RegNext(fetched.cellIndex)
       val list = Reg(Vec.fill(k)(Entry()))
     }
     val compare = new Area {
@@ -103,20 +112,23 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
       val full = RegNext((0 until k).map(i => !inList(i) || read.list(i).valid).andR)
     }
     val c = compare.c
-    // The corner in `compare` writes its cell at the end of this clock: a corner of the same cell arriving now takes
-    // that update instead of the bank's list. Compared a clock ahead (the corner in `read` against the one at the
-    // input), one copy per list place (kept apart).
+    // A corner's list is fetched at the end of its arrival's clock; a corner ahead of it by two or three clocks
+    // writes its list at the end of the next or of that very clock (from `compare`), after the fetch: a corner of the
+    // same cell takes that update instead, straight from `updated` or from `written` (registered as it is written).
+    // Compared a clock ahead, one copy per list place (kept apart).
+    val written = RegNext(updated)
     val sameCell = (0 until k).map { _ =>
-      val s = RegNext(read.c.valid && read.bank === bankIn && read.cellIndex === cellIn) init False
+      val s = RegNext(read.c.valid && read.bank === arrivingBank && read.cellIndex === arrivingCell) init False
       s.addAttribute("preserve")
       s
     }
-    when(arriving.valid) {
-      read.bank := arriving.y(b.bandShift downto b.bandShift)
-      read.cellIndex := arriving.x(b.cellShift, cellWidth bits)
-      for (i <- 0 until k) {
-        read.list(i) := Mux(sameCell(i), updated(i), MuxOH.or(selects(i), lists.map { case (bank, cell) => banks(bank)(cell)(i) }))
-      }
+    val sameCellBefore = (0 until k).map { _ =>
+      val s = RegNext(compare.c.valid && compare.bank === arrivingBank && compare.cellIndex === arrivingCell) init False
+      s.addAttribute("preserve")
+      s
+    }
+    for (i <- 0 until k) {
+      read.list(i) := Mux(sameCell(i), updated(i), Mux(sameCellBefore(i), written(i), fetched.list(i)))
     }
     val fresh = Entry()
     fresh.valid := True
@@ -125,7 +137,8 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
     fresh.score := c.score
     val list = compare.list
     val ahead = compare.ahead
-    // Entries ahead of the corner stay, the corner takes the first place after them, the rest move down one.
+    // Entries ahead of the corner stay, the corner takes the first place after them, the rest move down one; a
+    // place beyond the line length's is emptied (only the valid flags are read of an empty entry).
     for (i <- 0 until k) {
       val e = updated(i)
       if (i == 0) e := fresh
@@ -134,7 +147,7 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
         when(ahead(i - 1)) { e := fresh }
       }
       when(ahead(i)) { e := list(i) }
-      when(!inList(i)) { e := emptyEntry }
+      when(!inList(i)) { e.valid := False }
     }
     // The list keeps k entries: the corner itself, or the weakest entry it pushes out, is deselected.
     val deselect = c.valid && compare.full
@@ -144,7 +157,7 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
     }
     for (((bank, cell), write) <- lists.zip(writes)) when(write) { banks(bank)(cell) := updated }
     /** a corner on its way into a list */
-    val busy = arriving.valid || read.c.valid || c.valid
+    val busy = arriving.valid || fetched.c.valid || read.c.valid || c.valid
   }
 
   // A band is complete at the first pixel of row (band end + emitRowOffset); its winners leave in raster order.
@@ -161,7 +174,7 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
     // one winner every `FeatureBudget.winnerClocks`: the histogram's read-modify-write of a RAM word takes that long
     val pace = Reg(UInt(log2Up(FeatureBudget.winnerClocks) bits)) init 0
     val bank = Reg(UInt(1 bits)) init 0
-    val bandY = Reg(UInt(f.coordWidth bits)) init 0
+    val bandY = Reg(f.coord()) init 0
     when(trigger) {
       busy := True
       bank := band(0 downto 0)
@@ -201,17 +214,20 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
     val first = firstOf(candidates.map(c => firstOf(c.toSeq)).toSeq)
     // the choice's register levels, then the score picked by its place into a register: the winner leaves after
     // them (its entry emptied then, a clock before the next round's entries are registered)
-    val steps = 1 + log2Up(k) + log2Up(cells) + 1
+    val steps = 1 + log2Up(k) + log2Up(cells) + 2
     require(steps + 1 <= FeatureBudget.winnerClocks, "a winner leaves in its pace, its score picked a clock before")
-    val out = Flow(HarrisCorner(f, h))
+    val out = Flow(CornerHw(f, h))
     val now = busy && pace === steps && !choosing
     out.valid := now && first.valid
     out.x := ((first.key.resize(log2Up(cells max 2) + b.cellShift)).resize(f.coordWidth))
     out.y := bandY + first.key(first.key.getWidth - 1 downto first.key.getWidth - b.bandShift).resize(f.coordWidth)
     // the score is not carried through the choice (narrower selections): picked by the winner's place into a
     // register in the clock before it leaves
-    // (in each bank, the bank chosen after the register)
-    val scores = banks.map(bk => RegNext(MuxOH.or(first.place, bk.flatMap(_.map(_.score)).toSeq)))
+    // (in two registered steps: each cell's, then the cell's, in each bank; the bank chosen after them)
+    val cellScores = banks.map(bk => bk.zipWithIndex.map { case (list, cell) =>
+      RegNext(MuxOH.or(first.place(cell * k, k bits), list.map(_.score).toSeq))
+    })
+    val scores = cellScores.map(cs => RegNext(cs.reduce(_ | _)))
     out.score := Mux(bank === 1, scores(1), scores(0))
     when(busy) {
       pace := Mux(pace === FeatureBudget.winnerClocks - 1, U(0, pace.getWidth bits), pace + 1)
@@ -398,8 +414,8 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
   histogram.writeData := Mux(frameEnd.arrives, U(0, countWidth bits), histogram.data + 1)
 
   val counters = new Area {
-    val deselected = Reg(UInt(f.counterWidth bits)) init 0
-    val dropped = Reg(UInt(f.counterWidth bits)) init 0
+    val deselected = Reg(f.counter()) init 0
+    val dropped = Reg(f.counter()) init 0
     // the clock's deselections registered where they arise, counted a clock later
     val deselectNow = RegNext(U(intake.deselect).resize(2) + U(decide.deselect).resize(2)) init 0
     deselected := deselected + deselectNow.resize(f.counterWidth)
@@ -422,5 +438,5 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
 object FeatureBudget {
   /** Clocks between two winners leaving a bank: the registered steps that choose one, and the histogram's read, its
     * registered data, the write back. */
-  val winnerClocks: Int = 7
+  val winnerClocks: Int = 8
 }

@@ -17,7 +17,7 @@ class FrameTracker(c: FrameConfig) extends Component {
   val cw = c.coordWidth
   val inFrame, locked, processed, active, bad, done, widthKnown, lineFaulted, key = Reg(Bool()) init False
   val x, y, lineW, expW, expH = Reg(UInt(cw bits)) init 0
-  val frames, badFrames, badLines = Reg(UInt(c.counterWidth bits)) init 0
+  val frames, badFrames, badLines = Reg(c.counter()) init 0
 
   /** The comparisons a beat needs, kept in registers beside the state they describe, so that no comparator lies in
     * the loop from one beat's state to the next (a beat can come every clock). `remW` = limitW - x and

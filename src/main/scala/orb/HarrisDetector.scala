@@ -42,10 +42,10 @@ class HarrisDetector(f: FrameConfig, h: HarrisConfig, columnRows: Int, stages: H
   val io = new Bundle {
     val columns = slave Flow (LineColumn(f, columnRows))
     val geometry = in(FrameGeometry(f))
-    val control = in(CornerControl())
-    val corners = master Flow (HarrisCorner(f, h))
+    val control = in(CornerParamsHw())
+    val corners = master Flow (CornerHw(f, h))
     val frameEnds = master Flow (FrameEndInfo())
-    val cornerCount = out UInt (f.counterWidth bits)
+    val cornerCount = out(f.counter())
   }
   val reach = HarrisConfig.reach
   val nodes = Array.fill(stages.output + 1)(Node())
@@ -215,7 +215,7 @@ class HarrisDetector(f: FrameConfig, h: HarrisConfig, columnRows: Int, stages: H
     io.corners.score := outputNode(suppress.CENTRE)
     io.frameEnds.valid := isValid && outputNode(PIXEL).ends
     io.frameEnds.payload := outputNode(PIXEL).end
-    val count = Reg(UInt(f.counterWidth bits)) init 0
+    val count = Reg(f.counter()) init 0
     when(io.corners.valid) { count := count + 1 }
     io.cornerCount := count
   }

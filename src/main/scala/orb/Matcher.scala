@@ -3,26 +3,6 @@ package orb
 import spinal.core._
 import spinal.lib._
 
-/** A correspondence: a live feature at (liveX, liveY) matched to the keyframe feature at (keyX, keyY). */
-case class CorrespondenceBeat(f: FrameConfig) extends Bundle {
-  val liveX, liveY, keyX, keyY = UInt(f.coordWidth bits)
-  val distance = UInt(MatcherConfig.distanceWidth bits)
-}
-
-/** Run-time matching parameters (`orb.model.MatchParams` in hardware); sampled at the first item of each frame. */
-case class MatchParamsHw(m: MatcherConfig) extends Bundle {
-  val hammingThreshold = UInt(MatcherConfig.distanceWidth bits)
-  val ratio = UInt(m.ratioWidth bits)
-  val ratioTest, crossCheck = Bool()
-}
-
-case class MatcherStatus(f: FrameConfig) extends Bundle {
-  /** features in the store now; keyframe features beyond the capacity (all keyframes so far) */
-  val stored, storeOverflow = UInt(f.counterWidth bits)
-  /** correspondences pushed to the output FIFO; those dropped because it was full */
-  val matches, matchDrops = UInt(f.counterWidth bits)
-}
-
 /** Keyframe store and brute-force Hamming matcher, as `orb.model.MatcherModel`.
   *
   * Input: the feature stream with its frame-end items. A frame whose items carry `keyframe` replaces the store with
@@ -50,9 +30,9 @@ case class MatcherStatus(f: FrameConfig) extends Bundle {
 class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: MatcherConfig) extends Component {
   import MatcherConfig.{distanceWidth, none, pushLatency, readLatency}
   val io = new Bundle {
-    val features = slave Stream (OrbFeature(f, h, d))
+    val features = slave Stream (FeatureHw(f, h, d))
     val params = in(MatchParamsHw(m))
-    val correspondences = master Stream (CorrespondenceBeat(f))
+    val correspondences = master Stream (CorrespondenceHw(f))
     val status = out(MatcherStatus(f))
   }
   val P = m.comparators
@@ -60,7 +40,10 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
   val groupWidth = log2Up(m.groups max 2)
   val countWidth = log2Up(m.storeCapacity + 1)
 
-  case class Entry() extends Bundle { val x, y = UInt(cw bits); val descriptor = Bits(256 bits) }
+  case class Entry() extends Bundle {
+    val x, y = UInt(cw bits)
+    val descriptor = Bits(OrbDescriptorConfig.descriptorBits bits)
+  }
   /** per entry: the best live feature of this frame so far */
   case class Cross() extends Bundle {
     val distance = UInt(distanceWidth bits) // `none` until a live feature has been compared
@@ -175,7 +158,7 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
     val readAddr = group.resize(groupWidth)
   }
 
-  val output = StreamFifo(CorrespondenceBeat(f), m.outputDepth)
+  val output = StreamFifo(CorrespondenceHw(f), m.outputDepth)
   // Waiting for the consumer, with a limit. The room is judged from the last clock's free places (at most one push
   // a clock takes one away), compared in registers, so no decision waits for the FIFO's pointers or a comparison.
   val paced = new Area {
@@ -403,6 +386,16 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
     val cross = pick(reads.map(_.cross), lane)
     val entry = pick(reads.map(_.entry), lane)
     val emit = valid && cross.mutual && frame.params.crossCheck
+    // the correspondence of an emitted entry, picked from its lane into registers (the lanes lie apart)
+    private val emitNow = emit
+    val out = new Area {
+      val emit = RegNext(emitNow) init False
+      val liveX = RegNext(cross.liveX)
+      val liveY = RegNext(cross.liveY)
+      val keyX = RegNext(entry.x)
+      val keyY = RegNext(entry.y)
+      val distance = RegNext(cross.distance)
+    }
   }
 
   // One write port per lane RAM: keyframe load, scan take-over, mutual mark, sweep clear (never two at once). The
@@ -437,19 +430,20 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
 
   // The correspondence registered on its way into the FIFO (the lanes' RAMs are far from it): a scan's is pushed a
   // clock after its decision, the sweep's `pushLatency` clocks after its read.
-  val beat = CorrespondenceBeat(f)
-  beat.liveX := Mux(swept.emit, swept.cross.liveX, scan.live.x)
-  beat.liveY := Mux(swept.emit, swept.cross.liveY, scan.live.y)
-  beat.keyX := Mux(swept.emit, swept.entry.x, compare.accKey.x)
-  beat.keyY := Mux(swept.emit, swept.entry.y, compare.accKey.y)
-  beat.distance := Mux(swept.emit, swept.cross.distance, compare.acc.best.distance)
+  val beat = CorrespondenceHw(f)
+  val sweptOut = swept.out
+  beat.liveX := Mux(sweptOut.emit, sweptOut.liveX, scan.live.x)
+  beat.liveY := Mux(sweptOut.emit, sweptOut.liveY, scan.live.y)
+  beat.keyX := Mux(sweptOut.emit, sweptOut.keyX, compare.accKey.x)
+  beat.keyY := Mux(sweptOut.emit, sweptOut.keyY, compare.accKey.y)
+  beat.distance := Mux(sweptOut.emit, sweptOut.distance, compare.acc.best.distance)
   val push = output.io.push
-  push.valid := RegNext(decide.emit || swept.emit) init False
+  push.valid := RegNext(decide.emit || sweptOut.emit) init False
   push.payload := RegNext(beat)
   io.correspondences << output.io.pop
 
   val counters = new Area {
-    def counter(inc: Bool): UInt = { val c = Reg(UInt(f.counterWidth bits)) init 0; when(inc) { c := c + 1 }; c }
+    def counter(inc: Bool): UInt = { val c = Reg(f.counter()) init 0; when(inc) { c := c + 1 }; c }
     io.status.stored := stored.resized
     io.status.storeOverflow := counter(load.overflow)
     io.status.matches := counter(push.fire)

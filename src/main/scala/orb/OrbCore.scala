@@ -3,16 +3,6 @@ package orb
 import spinal.core._
 import spinal.lib._
 
-case class CoreStatus(c: FrameConfig) extends Bundle {
-  val frames, badFrames, badLines, corners, features = UInt(c.counterWidth bits)
-  /** corners the feature budget did not select (`BudgetConfig`'s rule) */
-  val deselected = UInt(c.counterWidth bits)
-  /** selected corners that got no descriptor: a fault in their frame before their rows were complete, or (never by
-    * design, see `OrbConfig.budgetService`; only a consumer that holds the output too long) no orientation slot, a full
-    * queue, no engine in time */
-  val featureDrops = UInt(c.counterWidth bits)
-}
-
 /** The core: camera pixels in, Harris corners and ORB features out (`OrbTop` adds the keyframe store and matcher).
   *
   * pixels -> FrameTracker (1 clk) -> LineBuffer (shared raw rows, 1 clk) -+-> HarrisDetector -> corners -> FeatureBudget
@@ -28,9 +18,9 @@ class OrbCore(val cfg: OrbConfig = OrbConfig.default) extends Component {
   val io = new Bundle {
     val pixels = slave Flow (PixelBeat())
     /** Harris threshold and segment test */
-    val cornerControl = in(CornerControl())
-    val corners = master Flow (HarrisCorner(cfg.frame, cfg.harris))
-    val features = master Stream (OrbFeature(cfg.frame, cfg.harris, cfg.descriptor))
+    val cornerControl = in(CornerParamsHw())
+    val corners = master Flow (CornerHw(cfg.frame, cfg.harris))
+    val features = master Stream (FeatureHw(cfg.frame, cfg.harris, cfg.descriptor))
     val frameEnds = master Flow (FrameEndInfo())
     val status = out(CoreStatus(cfg.frame))
   }
@@ -55,7 +45,7 @@ class OrbCore(val cfg: OrbConfig = OrbConfig.default) extends Component {
   descriptors.io.smoothed << smoother.io.smoothed
   descriptors.io.corners << orientation.io.oriented
   io.features << descriptors.io.features
-  val featureCount = Reg(UInt(cfg.frame.counterWidth bits)) init 0
+  val featureCount = Reg(cfg.frame.counter()) init 0
   when(io.features.fire && !io.features.frameEnd) { featureCount := featureCount + 1 }
   io.status.features := featureCount
   io.status.featureDrops := budget.io.dropped + orientation.io.dropped + descriptors.io.dropped

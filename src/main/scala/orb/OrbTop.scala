@@ -17,7 +17,7 @@ import spinal.lib.bus.avalon._
 class OrbTop(val cfg: OrbConfig = OrbConfig.default) extends Component {
   val io = new Bundle {
     val pixels = slave Flow (PixelBeat())
-    val correspondences = master Stream (CorrespondenceBeat(cfg.frame))
+    val correspondences = master Stream (CorrespondenceHw(cfg.frame))
     val ctrl = slave(AvalonMM(OrbTop.avalonConfig))
   }
   val core = new OrbCore(cfg)

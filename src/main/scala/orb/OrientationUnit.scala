@@ -4,22 +4,6 @@ import spinal.core._
 import spinal.lib._
 import Arith._
 
-/** A corner with its intensity moments and orientation bin. */
-case class OrientedCorner(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) extends Bundle {
-  val corner = HarrisCorner(f, h)
-  val m10, m01 = SInt(OrientationUnit.momentWidth bits)
-  val bin = UInt(d.binWidth bits)
-  /** rows are counted from reset, across frames: the row whose start means the corner's smoothed patch is complete */
-  val startRow = UInt(OrientationUnit.rowCountWidth bits)
-  /** the corner's frame, counted from reset (wrapping) */
-  val frameTag = UInt(OrientationUnit.frameTagWidth bits)
-  /** the corner's frame is a keyframe */
-  val keyframe = Bool()
-  /** not a corner: the end of a processed frame, after all of its corners (`end` says how it ended) */
-  val frameEnd = Bool()
-  val end = FrameEndInfo()
-}
-
 /** Orientation by intensity centroid (OpenCV's IC_Angle) without storing any patch or keeping any per-corner state
   * while its disc passes.
   *
@@ -39,14 +23,14 @@ class OrientationUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, c
   require(columnRows >= 2 * patchRadius + 1)
   val io = new Bundle {
     val columns = slave Flow (LineColumn(f, columnRows))
-    val corners = slave Flow (HarrisCorner(f, h))
+    val corners = slave Flow (CornerHw(f, h))
     val oriented = master Flow (OrientedCorner(f, h, d))
-    val dropped = out UInt (f.counterWidth bits)
+    val dropped = out(f.counter())
   }
   val cw = f.coordWidth
   val R = patchRadius
 
-  val queue = StreamFifo(HarrisCorner(f, h), d.cornerQueueDepth)
+  val queue = StreamFifo(CornerHw(f, h), d.cornerQueueDepth)
   queue.io.push.valid := io.corners.valid
   queue.io.push.payload := io.corners.payload
   val queueDrop = io.corners.valid && !queue.io.push.ready
@@ -144,7 +128,7 @@ class OrientationUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, c
   // The queue's head, through a register (a RAM's output is too slow to decide on in the same clock), with the
   // position of its last column computed as it loads.
   case class Waiting() extends Bundle {
-    val corner = HarrisCorner(f, h)
+    val corner = CornerHw(f, h)
     val lastX, lastY = UInt(cw bits)
   }
   // (its readiness through a register too: no decision on the head reaches the queue's RAM and pointers)
@@ -233,7 +217,7 @@ class OrientationUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, c
   // lags the drops by three clocks).
   val singleDrops = RegNext(Vec(queueDrop, staleDrop, faultDrop).asBits) init 0
   val dropsNow = RegNext(CountOne(singleDrops).resize(dropWidth) + queueFlushed) init 0
-  val drops = Reg(UInt(f.counterWidth bits)) init 0
+  val drops = Reg(f.counter()) init 0
   drops := drops + dropsNow.resize(f.counterWidth)
   io.dropped := drops
 }

@@ -13,7 +13,8 @@ object Pattern {
       val Array(x1, y1, x2, y2) = l.split(",").map(_.trim.toInt)
       BriefTest(x1, y1, x2, y2)
     }
-    require(tests.size == 256, s"expected 256 BRIEF tests, found ${tests.size}")
+    require(tests.size == OrbDescriptorConfig.descriptorBits,
+      s"expected ${OrbDescriptorConfig.descriptorBits} BRIEF tests, found ${tests.size}")
     tests
   }
 }

@@ -2,6 +2,10 @@ package orb
 
 import spinal.core._
 
+// Every bundle that crosses a block boundary, in the order of the flow (pixel beat, tracked pixel, line column,
+// smoothed pixel, corner, oriented corner, feature, correspondence), then the status and control bundles. A bundle
+// that has a twin in the golden model (`orb.model`) is named after it with `Hw`.
+
 /** One pixel of the camera stream; a clock with `valid` low is blanking (any length, including none).
   * The markers follow the AXI4-Stream video convention: `sof` on the first pixel of a frame (it also samples
   * `keyframe`), `eol` on the last pixel of every line. Width and height are learned from the markers. */
@@ -15,7 +19,7 @@ case class PixelBeat() extends Bundle {
 /** A pixel with its position, as the frame tracker hands it to the line buffer and the detectors. */
 case class TrackedPixel(c: FrameConfig) extends Bundle {
   val luma = UInt(8 bits)
-  val x, y = UInt(c.coordWidth bits)
+  val x, y = c.coord()
   /** part of a processed frame, and no fault in that frame up to and including this pixel */
   val active = Bool()
   /** the keyframe flag of this pixel's frame (sampled at its start of frame) */
@@ -24,6 +28,62 @@ case class TrackedPixel(c: FrameConfig) extends Bundle {
   val ends = Bool()
   val end = FrameEndInfo()
 }
+
+case class LineColumn(f: FrameConfig, rows: Int) extends Bundle {
+  val pixel = TrackedPixel(f)
+  /** 0 = the current row */
+  val column = Vec(UInt(8 bits), rows)
+}
+
+/** A smoothed pixel for the descriptor's samples: the 7x7 OpenCV Gaussian of the raw pixel 3 rows above and
+  * 3 columns left of `pixel` (the beat that completed its neighbourhood). */
+case class SmoothedPixel(f: FrameConfig) extends Bundle {
+  val pixel = TrackedPixel(f)
+  val smoothed = UInt(8 bits)
+}
+
+case class CornerHw(c: FrameConfig, h: HarrisConfig) extends Bundle {
+  val x, y = c.coord()
+  val score = UInt(h.scoreWidth bits)
+}
+
+/** A corner with its intensity moments and orientation bin. */
+case class OrientedCorner(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) extends Bundle {
+  val corner = CornerHw(f, h)
+  val m10, m01 = SInt(OrientationUnit.momentWidth bits)
+  val bin = UInt(d.binWidth bits)
+  /** rows are counted from reset, across frames: the row whose start means the corner's smoothed patch is complete */
+  val startRow = UInt(OrientationUnit.rowCountWidth bits)
+  /** the corner's frame, counted from reset (wrapping) */
+  val frameTag = UInt(OrientationUnit.frameTagWidth bits)
+  /** the corner's frame is a keyframe */
+  val keyframe = Bool()
+  /** not a corner: the end of a processed frame, after all of its corners (`end` says how it ended) */
+  val frameEnd = Bool()
+  val end = FrameEndInfo()
+}
+
+/** A finished ORB feature. `descriptor(i)` is test i: byte i/8, bit i%8 of OpenCV's descriptor. With `frameEnd`
+  * set, the item is no feature but the end of a processed frame, after all of that frame's features. */
+case class FeatureHw(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) extends Bundle {
+  val x, y = f.coord()
+  val bin = UInt(d.binWidth bits)
+  val score = UInt(h.scoreWidth bits)
+  val descriptor = Bits(OrbDescriptorConfig.descriptorBits bits)
+  /** the feature's frame is a keyframe */
+  val keyframe = Bool()
+  /** not a feature: the end of a processed frame, after all of its features (`end` says how it ended) */
+  val frameEnd = Bool()
+  val end = FrameEndInfo()
+}
+
+/** A correspondence: a live feature at (liveX, liveY) matched to the keyframe feature at (keyX, keyY). */
+case class CorrespondenceHw(f: FrameConfig) extends Bundle {
+  val liveX, liveY, keyX, keyY = f.coord()
+  val distance = UInt(MatcherConfig.distanceWidth bits)
+}
+
+// ---- status and control ----
 
 /** How a processed frame ended. */
 case class FrameEndInfo() extends Bundle {
@@ -34,20 +94,15 @@ case class FrameEndInfo() extends Bundle {
 }
 
 case class FrameGeometry(c: FrameConfig) extends Bundle {
-  val width, height = UInt(c.coordWidth bits)
+  val width, height = c.coord()
 }
 
 case class FrameCountersHw(c: FrameConfig) extends Bundle {
-  val frames, badFrames, badLines = UInt(c.counterWidth bits)
-}
-
-case class HarrisCorner(c: FrameConfig, h: HarrisConfig) extends Bundle {
-  val x, y = UInt(c.coordWidth bits)
-  val score = UInt(h.scoreWidth bits)
+  val frames, badFrames, badLines = c.counter()
 }
 
 /** The corner detector's run-time parameters (`CornerParams` in the model). */
-case class CornerControl() extends Bundle {
+case class CornerParamsHw() extends Bundle {
   /** a candidate is a corner when its score is above this */
   val threshold = UInt(32 bits)
   /** only pixels that pass the segment test are candidates (ignored without `HarrisConfig.segment`) */
@@ -55,4 +110,28 @@ case class CornerControl() extends Bundle {
   val segmentThreshold = UInt(8 bits)
   /** the feature budget's target: features per frame */
   val target = UInt(BudgetConfig.targetWidth bits)
+}
+
+/** Run-time matching parameters (`orb.model.MatchParams` in hardware); sampled at the first item of each frame. */
+case class MatchParamsHw(m: MatcherConfig) extends Bundle {
+  val hammingThreshold = UInt(MatcherConfig.distanceWidth bits)
+  val ratio = UInt(m.ratioWidth bits)
+  val ratioTest, crossCheck = Bool()
+}
+
+case class MatcherStatus(f: FrameConfig) extends Bundle {
+  /** features in the store now; keyframe features beyond the capacity (all keyframes so far) */
+  val stored, storeOverflow = f.counter()
+  /** correspondences pushed to the output FIFO; those dropped because it was full */
+  val matches, matchDrops = f.counter()
+}
+
+case class CoreStatus(c: FrameConfig) extends Bundle {
+  val frames, badFrames, badLines, corners, features = c.counter()
+  /** corners the feature budget did not select (`BudgetConfig`'s rule) */
+  val deselected = c.counter()
+  /** selected corners that got no descriptor: a fault in their frame before their rows were complete, or (never by
+    * design, see `OrbConfig.budgetService`; only a consumer that holds the output too long) no orientation slot, a full
+    * queue, no engine in time */
+  val featureDrops = c.counter()
 }

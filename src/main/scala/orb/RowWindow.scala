@@ -45,12 +45,6 @@ object RowWindow {
   val latency = 2
 }
 
-case class LineColumn(f: FrameConfig, rows: Int) extends Bundle {
-  val pixel = TrackedPixel(f)
-  /** 0 = the current row */
-  val column = Vec(UInt(8 bits), rows)
-}
-
 /** The shared raw-image line buffer: every reader taps the rows it needs from one column. Latency:
   * `RowWindow.latency`. */
 class LineBuffer(f: FrameConfig, rows: Int) extends Component {

@@ -5,13 +5,6 @@ import spinal.lib._
 import spinal.lib.misc.pipeline._
 import Arith._
 
-/** A smoothed pixel for the descriptor's samples: the 7x7 OpenCV Gaussian of the raw pixel 3 rows above and
-  * 3 columns left of `pixel` (the beat that completed its neighbourhood). */
-case class SmoothedPixel(f: FrameConfig) extends Bundle {
-  val pixel = TrackedPixel(f)
-  val smoothed = UInt(8 bits)
-}
-
 /** The 7x7 Gaussian (sigma 2) of `orb.model.OrbModel.smooth`, computed in the stream from the newest 7 rows of the
   * shared raw column: vertical taps first, then 7 registers that advance with valid pixels; integer kernel
   * 18 34 48 56 48 34 18 per pass, one rounding at the end. No multiplier blocks: the weights are shifts and adds.

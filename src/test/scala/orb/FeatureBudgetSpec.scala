@@ -17,11 +17,7 @@ class FeatureBudgetSpec extends AnyFunSuite {
     var rtl: RtlResult = null
     core.doSim(name, seed.toInt) { dut => rtl = CoreSim.run(dut, beats, p, blanking, rng(name).nextLong()) }
     Scoreboard.compare(name, CoreEvents.of(model), rtl.events, frames.lastOption).foreach(msg => fail(msg))
-    val fd = model.featureStream.zipAll(rtl.featureStream, null, null).indexWhere { case (a, b) => a != b }
-    if (fd >= 0) {
-      val dir = Scoreboard.dumpFeatures(name, model.features, rtl.features, frames.lastOption)
-      fail(s"$name: feature output item $fd: model ${model.featureStream.lift(fd)} vs RTL ${rtl.featureStream.lift(fd)}; dumped to $dir")
-    }
+    Scoreboard.compareFeatureStreams(name, model.featureStream, rtl.featureStream, frames.lastOption).foreach(msg => fail(msg))
     assert(rtl.deselected == model.deselected, s"$name: deselected corners (RTL ${rtl.deselected}, model ${model.deselected})")
     assert(rtl.featureDrops == 0 && model.featureDrops == 0, s"$name: ${rtl.featureDrops} selected corners got no feature")
     assert(rtl.features.size + rtl.deselected == rtl.corners.size, s"$name: every corner is a feature or deselected")

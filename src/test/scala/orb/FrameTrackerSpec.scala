@@ -62,8 +62,7 @@ class FrameTrackerSpec extends AnyFunSuite {
         counters = FrameCounters(dut.io.counters.frames.toLong, dut.io.counters.badFrames.toLong, dut.io.counters.badLines.toLong)
       }
       val norm = expected.map(t => t.copy(frameOk = t.frameEnd && t.frameOk, frameKey = t.frameEnd && t.frameKey))
-      val first = norm.zipAll(got, null, null).indexWhere { case (a, b) => a != b }
-      assert(first < 0, s"run $run: beat $first: model ${norm.lift(first)} vs RTL ${got.lift(first)}")
+      orb.testbench.Scoreboard.describe(s"run $run", "tracked beats", norm, got.toSeq).foreach(msg => fail(msg))
       assert(counters == model.stats, s"run $run: counters")
       val processed = norm.count(_.frameEnd)
       println(s"[orb] tracker run $run: ${beats.size} beats, ${model.stats}, $processed processed frames ended")

@@ -19,7 +19,7 @@ class MatcherModelSpec extends AnyFunSuite {
     val s = MatcherModel.store(Seq(feat(1, 10), feat(2, 10), feat(3, 40)), cfg)
     assert(MatcherModel.nearest(feat(9, 12), s).contains((0, 2, 2)))
     assert(MatcherModel.nearest(feat(9, 38), s).contains((2, 2, 28)))
-    val p = MatchParams(hammingThreshold = 5, ratio = Some(128)) // r = 0.5
+    val p = MatchParams(hammingThreshold = 5, ratio = Some(128), crossCheck = false) // r = 0.5
     assert(MatcherModel.matchFrame(s, Seq(feat(9, 12)), p, cfg).isEmpty, "a tie fails the ratio test")
     assert(MatcherModel.matchFrame(s, Seq(feat(9, 38)), p, cfg) == Seq(Correspondence(9, 0, 3, 0, 2)))
     assert(MatcherModel.matchFrame(s, Seq(feat(9, 38)), p.copy(hammingThreshold = 1), cfg).isEmpty)
@@ -28,7 +28,7 @@ class MatcherModelSpec extends AnyFunSuite {
   test("cross-check keeps mutual nearest neighbours only") {
     val s = MatcherModel.store(Seq(feat(1, 10), feat(2, 100)), cfg)
     val live = Seq(feat(7, 11), feat(8, 12), feat(9, 99))
-    val p = MatchParams(hammingThreshold = 256, crossCheck = true)
+    val p = MatchParams(hammingThreshold = 256, crossCheck = true, ratio = None)
     // live 8 prefers entry 1 but entry 1 prefers live 7
     assert(MatcherModel.matchFrame(s, live, p, cfg) == Seq(Correspondence(7, 0, 1, 0, 1), Correspondence(9, 0, 2, 0, 1)))
     assert(MatcherModel.matchFrame(s, live, p.copy(crossCheck = false), cfg).size == 3)

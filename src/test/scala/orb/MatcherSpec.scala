@@ -56,7 +56,7 @@ class MatcherSpec extends AnyFunSuite {
         item match {
           case Right(ft) =>
             in.frameEnd #= false; in.x #= ft.x; in.y #= ft.y; in.bin #= ft.bin; in.score #= ft.score
-            in.descriptor #= ft.descriptor.zipWithIndex.map { case (b, i) => BigInt(b) << (8 * i) }.sum
+            in.descriptor #= ft.descriptorBits
             in.keyframe #= keyFlags(i)
           case Left(e) =>
             in.frameEnd #= true; in.end.ok #= e.ok; in.end.keyframe #= e.keyframe; in.keyframe #= e.keyframe
@@ -115,16 +115,7 @@ class MatcherSpec extends AnyFunSuite {
     assert(rtl.overflow == model.overflow, s"$name: overflow count")
     assert(rtl.matches == rtl.correspondences.size, s"$name: match counter")
     if (rtl.drops == 0) {
-      if (rtl.correspondences != expected) {
-        val dir = new File(Scoreboard.dumpDir, name.replaceAll("[^A-Za-z0-9_.-]+", "_")); dir.mkdirs()
-        for ((file, cs) <- Seq("model.csv" -> expected, "rtl.csv" -> rtl.correspondences)) {
-          val w = new PrintWriter(new File(dir, file))
-          w.println("live_x,live_y,key_x,key_y,distance"); cs.foreach(c => w.println(s"${c.liveX},${c.liveY},${c.keyX},${c.keyY},${c.distance}")); w.close()
-        }
-        val i = expected.zipAll(rtl.correspondences, null, null).indexWhere { case (a, b) => a != b }
-        fail(s"$name: model ${expected.size} correspondences, RTL ${rtl.correspondences.size}; first difference at $i: " +
-          s"${expected.lift(i)} vs ${rtl.correspondences.lift(i)}; dumped to ${dir.getPath}")
-      }
+      Scoreboard.compareCorrespondences(name, expected, rtl.correspondences).foreach(msg => fail(msg))
     } else {
       // Drops: what arrived is the model's sequence with some left out, and every one left out is counted.
       Scoreboard.notAnOrderedSubset(expected, rtl.correspondences).foreach(c => fail(s"$name: $c is not the model's next"))
@@ -134,30 +125,30 @@ class MatcherSpec extends AnyFunSuite {
     (model, rtl)
   }
 
-  val plain = MatchParams(hammingThreshold = 64)
+  val plain = MatchParams(hammingThreshold = 64, ratio = None, crossCheck = false)
   test("threshold only: live order, first entry on ties") {
     val (model, _) = check("threshold", scenario(rng("threshold"), 13, 3, 20), plain, ready = 0.7)
     assert(model.correspondences.nonEmpty)
   }
   test("ratio test, against the brute-force model") {
-    val (model, _) = check("ratio", scenario(rng("ratio"), 16, 3, 20), MatchParams(hammingThreshold = 128, ratio = Some(205)))
+    val (model, _) = check("ratio", scenario(rng("ratio"), 16, 3, 20), MatchParams(hammingThreshold = 128, ratio = Some(205), crossCheck = false))
     assert(model.correspondences.nonEmpty)
   }
   test("cross-check: mutual pairs at the frame end, in keyframe order") {
     val stream = scenario(rng("cross"), 16, 3, 24)
-    val (model, _) = check("cross-check", stream, MatchParams(hammingThreshold = 100, crossCheck = true))
-    val plainCount = MatcherModel.run(stream, MatchParams(hammingThreshold = 100), m).correspondences.size
+    val (model, _) = check("cross-check", stream, MatchParams(hammingThreshold = 100, crossCheck = true, ratio = None))
+    val plainCount = MatcherModel.run(stream, MatchParams(hammingThreshold = 100, ratio = None, crossCheck = false), m).correspondences.size
     assert(model.correspondences.nonEmpty && model.correspondences.size < plainCount, "the scenario exercises the check")
   }
   test("cross-check with the ratio test and a threshold of 0 and 256") {
     val stream = scenario(rng("both"), 12, 2, 16)
     check("cross+ratio", stream, MatchParams(hammingThreshold = 256, ratio = Some(230), crossCheck = true))
-    check("threshold 0", stream, MatchParams(hammingThreshold = 0, crossCheck = true))
+    check("threshold 0", stream, MatchParams(hammingThreshold = 0, crossCheck = true, ratio = None))
   }
   test("store overflow: the strongest 16 are kept (the earliest of equal scores), the rest counted; a new keyframe replaces the store") {
     // Cross-check emits in store order, so the content and the order of the store are both visible.
     val stream = scenario(rng("overflow"), 40, 3, 24, keyAgainAt = 1)
-    val (model, _) = check("overflow", stream, MatchParams(hammingThreshold = 100, crossCheck = true))
+    val (model, _) = check("overflow", stream, MatchParams(hammingThreshold = 100, crossCheck = true, ratio = None))
     assert(model.overflow == 24 + 4 && model.correspondences.size > 10)
     check("overflow, threshold only", stream, plain)
   }
@@ -171,13 +162,13 @@ class MatcherSpec extends AnyFunSuite {
       val live = key.map(k => k.copy(x = k.x + 100, y = 5))
       val stream = key.map(Right(_)) ++ Seq(Left(FrameEnd(ok = true, keyframe = true))) ++ live.map(Right(_)) ++
         Seq(Left(FrameEnd(ok = true, keyframe = false)))
-      val (model, _) = check(s"replacement, weakest in $name", stream, MatchParams(hammingThreshold = 10, crossCheck = true))
+      val (model, _) = check(s"replacement, weakest in $name", stream, MatchParams(hammingThreshold = 10, crossCheck = true, ratio = None))
       assert(model.store.features.map(_.x) == (0 until 16).map(i => if (weakAt.take(3).contains(i)) 16 + weakAt.indexOf(i) else i))
     }
   }
   test("empty store: no correspondence, no hang; a single entry has no second best") {
     val rng0 = rng("empty")
-    check("single entry", scenario(rng0, 1, 2, 6), MatchParams(hammingThreshold = 256, ratio = Some(511)))
+    check("single entry", scenario(rng0, 1, 2, 6), MatchParams(hammingThreshold = 256, ratio = Some(511), crossCheck = false))
     val noKey = scenario(rng0, 0, 2, 6)
     val (model, _) = check("empty store", noKey, plain)
     assert(model.correspondences.isEmpty)
@@ -185,9 +176,9 @@ class MatcherSpec extends AnyFunSuite {
   test("a slow consumer loses nothing; a stalled one gets counted drops after the timeout, and no hang") {
     val stream = scenario(rng("stall"), 16, 4, 30)
     for (cross <- Seq(false, true)) {
-      val (_, slow) = check(s"slow consumer, cross-check $cross", stream, MatchParams(hammingThreshold = 100, crossCheck = cross), ready = 0.1)
+      val (_, slow) = check(s"slow consumer, cross-check $cross", stream, MatchParams(hammingThreshold = 100, crossCheck = cross, ratio = None), ready = 0.1)
       assert(slow.drops == 0)
-      val (_, stalled) = check(s"stalled consumer, cross-check $cross", stream, MatchParams(hammingThreshold = 100, crossCheck = cross), stallFor = 3000)
+      val (_, stalled) = check(s"stalled consumer, cross-check $cross", stream, MatchParams(hammingThreshold = 100, crossCheck = cross, ratio = None), stallFor = 3000)
       assert(stalled.drops > 0, "a 3000-clock stall must outlast the timeout")
     }
   }

@@ -22,11 +22,7 @@ class OrbCoreSpec extends AnyFunSuite {
     Scoreboard.compare(name, CoreEvents.of(model), rtl.events, frames.lastOption).foreach(msg => fail(msg))
     assert(rtl.counters == model.counters, s"$name: counters")
     assert(rtl.cornerCount == model.cornerCount, s"$name: corner counter")
-    val fd = model.featureStream.zipAll(rtl.featureStream, null, null).indexWhere { case (a, b) => a != b }
-    if (fd >= 0) {
-      val dir = Scoreboard.dumpFeatures(name, model.features, rtl.features, frames.lastOption)
-      fail(s"$name: feature output item $fd: model ${model.featureStream.lift(fd)} vs RTL ${rtl.featureStream.lift(fd)}; dumped to $dir")
-    }
+    Scoreboard.compareFeatureStreams(name, model.featureStream, rtl.featureStream, frames.lastOption).foreach(msg => fail(msg))
     assert(rtl.featureDrops == model.featureDrops, s"$name: ${rtl.featureDrops} corners got no descriptor, the model says ${model.featureDrops}")
     assert(rtl.deselected == model.deselected, s"$name: deselected corners")
     assert(rtl.featureCount == rtl.features.size)

@@ -12,7 +12,7 @@ class OrientationHarness(c: OrbConfig) extends Component {
   val rows = 2 * OrbDescriptorConfig.patchRadius + 1
   val io = new Bundle {
     val pixels = slave Flow (PixelBeat())
-    val control = in(CornerControl())
+    val control = in(CornerParamsHw())
     val oriented = master Flow (OrientedCorner(c.frame, c.harris, c.descriptor))
     val dropped = out UInt (32 bits)
   }
@@ -38,7 +38,7 @@ class DenseOrientationHarness(c: OrbConfig) extends Component {
   val rows = 2 * OrbDescriptorConfig.patchRadius + 1
   val io = new Bundle {
     val pixels = slave Flow (PixelBeat())
-    val control = in(CornerControl())
+    val control = in(CornerParamsHw())
     val oriented = master Flow (OrientedCorner(c.frame, c.harris, c.descriptor))
     val dropped = out UInt (32 bits)
   }
@@ -58,7 +58,7 @@ class DenseOrientationHarness(c: OrbConfig) extends Component {
 }
 
 /** The ports either harness drives. */
-final case class OrientationDut(pixels: Flow[PixelBeat], control: CornerControl, oriented: Flow[OrientedCorner],
+final case class OrientationDut(pixels: Flow[PixelBeat], control: CornerParamsHw, oriented: Flow[OrientedCorner],
                                 dropped: UInt, clockDomain: ClockDomain)
 
 class OrientationSpec extends AnyFunSuite {

@@ -21,7 +21,7 @@ object DescriptorSchedule {
   val testsPerGroup: Int = 2
   val pointsPerGroup: Int = 2 * testsPerGroup
   val lanesPerPort: Int = 2
-  val groups: Int = 256 / testsPerGroup
+  val groups: Int = OrbDescriptorConfig.descriptorBits / testsPerGroup
 
   /** A point of a group: its bank, and whether it must read through port B. */
   final case class Point(bank: Int, portB: Boolean)

@@ -9,8 +9,9 @@ final case class Correspondence(liveX: Int, liveY: Int, keyX: Int, keyY: Int, di
   * @param hammingThreshold accept a best match at this distance or less (0..256)
   * @param ratio            ratio test factor scaled 2^ratioFracBits: accept when best * 2^F < ratio * second;
   *                         None disables the test
-  * @param crossCheck       keep only mutual nearest neighbours (OpenCV's BFMatcher crossCheck = true) */
-final case class MatchParams(hammingThreshold: Int = 64, ratio: Option[Int] = None, crossCheck: Boolean = false)
+  * @param crossCheck       keep only mutual nearest neighbours (OpenCV's BFMatcher crossCheck = true)
+  * The hardware's values after reset are `MatcherConfig.defaultParams`. */
+final case class MatchParams(hammingThreshold: Int, ratio: Option[Int], crossCheck: Boolean)
 
 /** Model of the keyframe store and the brute-force Hamming matcher (the specification the hardware will follow).
   *

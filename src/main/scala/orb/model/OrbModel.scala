@@ -6,9 +6,17 @@ import orb.OrbDescriptorConfig._
 /** A feature as the core emits it: a Harris corner with its orientation bin and 256-bit descriptor, stored as
   * OpenCV stores it (byte i/8, bit i%8 least significant first). */
 final case class Feature(x: Int, y: Int, bin: Int, score: Long, descriptor: Vector[Int]) {
-  require(descriptor.size == 32)
+  require(descriptor.size == OrbDescriptorConfig.descriptorBytes)
+  /** the descriptor as one number: byte i in bits 8i .. 8i + 7, so bit i is test i */
+  def descriptorBits: BigInt = descriptor.zipWithIndex.map { case (b, i) => BigInt(b) << (8 * i) }.sum
   def hex: String = descriptor.map(b => f"$b%02x").mkString
   def bit(i: Int): Int = (descriptor(i / 8) >> (i % 8)) & 1
+}
+
+object Feature {
+  /** the descriptor bytes of a `descriptorBits` number */
+  def descriptorOf(bits: BigInt): Vector[Int] =
+    Vector.tabulate(OrbDescriptorConfig.descriptorBytes)(b => ((bits >> (8 * b)) & 0xff).toInt)
 }
 
 /** Integer model of the ORB descriptor stage, one function per step. Everything a hardware stage computes is
@@ -44,8 +52,7 @@ object OrbModel {
   }
 
   /** tan of the bin boundaries inside the first octant, (j + 1/2) bins for j < binsPerOctant, scaled 2^tanFracBits. */
-  def boundaryTangents(cfg: OrbDescriptorConfig): IndexedSeq[Long] =
-    (0 until cfg.binsPerOctant).map(j => math.round(math.tan(math.toRadians((j + 0.5) * cfg.binDegrees)) * (1L << cfg.tanFracBits)))
+  def boundaryTangents(cfg: OrbDescriptorConfig): IndexedSeq[Long] = cfg.boundaryTangents
 
   /** The orientation bin nearest to atan2(m01, m10), without a division: fold into the first octant by signs and
     * a swap, count the boundaries below the angle (b 2^F >= a T_j), unfold. (0, 0) is bin 0, as OpenCV's angle 0. */

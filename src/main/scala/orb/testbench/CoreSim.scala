@@ -84,7 +84,7 @@ object CoreSim {
     dut.io.features.ready #= true
   }
 
-  def control(c: CornerControl, p: CornerParams): Unit = {
+  def control(c: CornerParamsHw, p: CornerParams): Unit = {
     c.threshold #= p.threshold
     c.segmentTest #= p.segmentThreshold.isDefined
     c.segmentThreshold #= p.segmentThreshold.fold(0L)(_.toLong)
@@ -121,7 +121,7 @@ object CoreSim {
         if (f.frameEnd.toBoolean) featureStream += Left(FrameEnd(f.end.ok.toBoolean, f.end.keyframe.toBoolean))
         else {
           val bits = f.descriptor.toBigInt
-          featureStream += Right(Feature(f.x.toInt, f.y.toInt, f.bin.toInt, f.score.toLong, Vector.tabulate(32)(b => ((bits >> (8 * b)) & 0xff).toInt)))
+          featureStream += Right(Feature(f.x.toInt, f.y.toInt, f.bin.toInt, f.score.toLong, Feature.descriptorOf(bits)))
         }
       }
       if (dut.io.frameEnds.valid.toBoolean)

@@ -15,11 +15,50 @@ object Scoreboard {
     emitted.find { e => rest = rest.dropWhile(_ != e); val missing = rest.isEmpty; if (!missing) rest = rest.tail; missing }
   }
 
-  def compare(name: String, model: Seq[CoreEvent], rtl: Seq[CoreEvent], image: Option[GrayImage] = None): Option[String] = {
-    if (model == rtl) return None
-    val firstDiff = model.zipAll(rtl, null, null).indexWhere { case (a, b) => a != b }
+  /** The first place where two sequences differ (an item, or one ending first), if any. */
+  def firstDifference[T](model: Seq[T], rtl: Seq[T]): Option[Int] = {
+    val i = model.map(Some(_)).zipAll(rtl.map(Some(_)), None, None).indexWhere { case (a, b) => a != b }
+    if (i < 0) None else Some(i)
+  }
+
+  /** A description of the first difference between two sequences of `what`, if any. */
+  def describe[T](name: String, what: String, model: Seq[T], rtl: Seq[T]): Option[String] =
+    firstDifference(model, rtl).map { i =>
+      s"$name: model ${model.size} $what, RTL ${rtl.size}; first difference at $i: model ${model.lift(i).getOrElse("-")} " +
+        s"vs RTL ${rtl.lift(i).getOrElse("-")}"
+    }
+
+  /** The directory of a case's dumps. */
+  def dumpDirOf(name: String): File = {
     val dir = new File(dumpDir, name.replaceAll("[^A-Za-z0-9_.-]+", "_"))
     dir.mkdirs()
+    dir
+  }
+
+  /** Model and RTL correspondences compared; on a difference both are written as CSV. */
+  def compareCorrespondences(name: String, model: Seq[Correspondence], rtl: Seq[Correspondence]): Option[String] =
+    describe(name, "correspondences", model, rtl).map { msg =>
+      val dir = dumpDirOf(name)
+      Csv.correspondences(new File(dir, "model.csv"), model)
+      Csv.correspondences(new File(dir, "rtl.csv"), rtl)
+      s"$msg; dumped to ${dir.getPath}"
+    }
+
+  /** Model and RTL feature streams (features and frame ends) compared; on a difference both feature lists are
+    * dumped (`dumpFeatures`). */
+  def compareFeatureStreams(name: String, model: Seq[Either[FrameEnd, Feature]], rtl: Seq[Either[FrameEnd, Feature]],
+                            image: Option[GrayImage] = None): Option[String] =
+    describe(name, "feature stream items", model, rtl).map { msg =>
+      def features(s: Seq[Either[FrameEnd, Feature]]) = s.collect { case Right(f) => f }
+      s"$msg; dumped to ${dumpFeatures(name, features(model), features(rtl), image)}"
+    }
+
+  def compare(name: String, model: Seq[CoreEvent], rtl: Seq[CoreEvent], image: Option[GrayImage] = None): Option[String] = {
+    val firstDiff = firstDifference(model, rtl) match {
+      case None => return None
+      case Some(i) => i
+    }
+    val dir = dumpDirOf(name)
     writeCsv(new File(dir, "model.csv"), model)
     writeCsv(new File(dir, "rtl.csv"), rtl)
     image.foreach { img =>
@@ -33,8 +72,7 @@ object Scoreboard {
   /** Both feature lists as CSV (x, y, bin, score, descriptor) under `dumpDir/name/`, with the picture of their
     * positions when the image is given; returns the directory. */
   def dumpFeatures(name: String, model: Seq[Feature], rtl: Seq[Feature], image: Option[GrayImage] = None): File = {
-    val dir = new File(dumpDir, name.replaceAll("[^A-Za-z0-9_.-]+", "_"))
-    dir.mkdirs()
+    val dir = dumpDirOf(name)
     for ((file, fs) <- Seq("model_features.csv" -> model, "rtl_features.csv" -> rtl)) {
       val w = new PrintWriter(new File(dir, file))
       try { w.println("x,y,bin,score,descriptor"); fs.foreach(f => w.println(s"${f.x},${f.y},${f.bin},${f.score},${f.hex}")) }
@@ -54,6 +92,20 @@ object Scoreboard {
         case FrameEndEvent(e) => w.println(s"frame_end,,,,${e.ok},${e.keyframe}")
       }
     } finally w.close()
+  }
+}
+
+/** The CSV files the tests and the tools write. */
+object Csv {
+  def write(f: File)(body: PrintWriter => Unit): Unit = {
+    val w = new PrintWriter(f)
+    try body(w) finally w.close()
+  }
+
+  /** `live_x,live_y,key_x,key_y,distance`, in the order given */
+  def correspondences(f: File, cs: Seq[Correspondence]): Unit = write(f) { w =>
+    w.println("live_x,live_y,key_x,key_y,distance")
+    cs.foreach(c => w.println(s"${c.liveX},${c.liveY},${c.keyX},${c.keyY},${c.distance}"))
   }
 }
 

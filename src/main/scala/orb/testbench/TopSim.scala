@@ -78,7 +78,7 @@ object TopSim {
         else {
           val bits = f.descriptor.toBigInt
           featureStream += Right(Feature(f.x.toInt, f.y.toInt, f.bin.toInt, f.score.toLong,
-            Vector.tabulate(32)(b => ((bits >> (8 * b)) & 0xff).toInt)))
+            Feature.descriptorOf(bits)))
         }
       }
       val c = dut.core.io.corners

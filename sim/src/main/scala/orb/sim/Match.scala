@@ -34,8 +34,7 @@ object Match {
        |  --help                  this text""".stripMargin
 
   final case class Options(key: String = null, live: String = null, out: String = null, engine: String = "model",
-                           homography: Option[String] = None, params: MatchParams = MatchParams(
-                             OrbConfig.default.matcher.defaultHammingThreshold, None, OrbConfig.default.matcher.defaultCrossCheck),
+                           homography: Option[String] = None, params: MatchParams = OrbConfig.default.matcher.defaultParams,
                            threshold: Long = OrbConfig.default.harris.defaultThreshold,
                            features: Int = OrbConfig.default.budget.defaultTarget,
                            /** None: the configuration's default; Some(None): no segment test */
@@ -195,17 +194,14 @@ object Match {
 
   // ---- outputs ----
 
-  def writeCorrespondences(f: File, cs: Seq[Correspondence]): Unit = write(f) { w =>
-    w.println("live_x,live_y,key_x,key_y,distance")
-    cs.foreach(c => w.println(s"${c.liveX},${c.liveY},${c.keyX},${c.keyY},${c.distance}"))
-  }
+  def writeCorrespondences(f: File, cs: Seq[Correspondence]): Unit = Csv.correspondences(f, cs)
 
   def writeFeatures(f: File, fs: Seq[Feature], cfg: OrbConfig): Unit = write(f) { w =>
     w.println("x,y,angle_deg,score,descriptor")
     fs.foreach(ft => w.println(f"${ft.x},${ft.y},${OrbModel.binDegrees(ft.bin, cfg.descriptor)}%.4f,${ft.score},${ft.hex}"))
   }
 
-  def write(f: File)(body: PrintWriter => Unit): Unit = { val w = new PrintWriter(f); try body(w) finally w.close() }
+  def write(f: File)(body: PrintWriter => Unit): Unit = Csv.write(f)(body)
 
   /** Keyframe left, live right, one line per correspondence: green within 3 px of the homography's prediction,
     * red beyond; yellow without ground truth. */

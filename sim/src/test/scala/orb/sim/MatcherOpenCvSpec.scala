@@ -41,7 +41,7 @@ class MatcherOpenCvSpec extends AnyFunSuite {
     assert(unique.forall(i => cv(i)._2 == ours(i)._1), "partners where the best is unique")
     // Cross-check: the same mutual pairs, up to ties.
     val pos = key.zipWithIndex.map { case (f, j) => (f.x, f.y) -> j }.toMap
-    val mine = MatcherModel.matchFrame(store, live, MatchParams(hammingThreshold = 256, crossCheck = true), mcfg)
+    val mine = MatcherModel.matchFrame(store, live, MatchParams(hammingThreshold = 256, crossCheck = true, ratio = None), mcfg)
       .map(c => (live.indexWhere(f => f.x == c.liveX && f.y == c.liveY), pos((c.keyX, c.keyY)))).toSet
     val theirs = cvMatch(live, key, crossCheck = true).map(m => (m._1, m._2)).toSet
     val agree = (mine intersect theirs).size.toDouble / (mine union theirs).size
