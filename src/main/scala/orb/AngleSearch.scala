@@ -66,8 +66,9 @@ class AngleSearch(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) exten
     val TRY = n.insert(idx < m && n(fold.A) =/= 0)
     val TANGENT = n.insert(table(idx.resize(log2Up(m max 2))))
     val p = nodes(4 * i + 3)
-    // a's copy that feeds only the multipliers (their input registers; kept apart from the pipeline's own a)
-    val aForProducts = RegNext(n(fold.A))
+    // a's copy that feeds only the multipliers (their input registers): loaded with the step's valid, so that it is
+    // no twin of the pipeline's own register of a (which would be merged into it and feed more than multipliers)
+    val aForProducts = RegNextWhen(n(fold.A), n.isValid)
     aForProducts.addAttribute("preserve")
     val LO = p.insert(aForProducts(loWidth - 1 downto 0) * p(TANGENT))
     val HI = p.insert(aForProducts(momentWidth - 1 downto loWidth) * p(TANGENT))

@@ -322,8 +322,8 @@ object MatcherConfig {
   /** clocks from the sweep's read of an entry to its correspondence's push into the output FIFO (the entry picked
     * from its lane into a register, then the push's register) */
   val pushLatency: Int = readLatency + 2
-  /** The popcount adds the counts of 4-bit chunks in a binary tree (a chunk's xor and count fit two LUT levels). */
-  val chunkBits: Int = 4
+  /** The popcount adds the counts of 8-bit chunks in a binary tree. */
+  val chunkBits: Int = 8
   val treeLevels: Int = log2Up(OrbDescriptorConfig.descriptorBits / chunkBits)
   def popcountStages(m: MatcherConfig): Int = 1 + (treeLevels + m.popcountLevelsPerStage - 1) / m.popcountLevelsPerStage
 

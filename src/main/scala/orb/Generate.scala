@@ -19,30 +19,23 @@ object Generate {
   final case class Options(out: String = defaultOut, config: OrbConfig = OrbConfig.default, configName: String = "default",
                            clockMhz: Double = 50.0)
 
-  private val valued = Set("--out", "--config", "--max-width", "--clock-mhz")
+  private val options: Seq[CommandLine.Opt[Options]] = Seq(
+    CommandLine.valued("--out")((o, v) => o.copy(out = v)),
+    CommandLine.valued("--config") { (o, v) =>
+      val name = CommandLine.preset(v)
+      o.copy(config = OrbConfig.presets(name), configName = name)
+    },
+    CommandLine.valued("--max-width") { (o, v) =>
+      val w = CommandLine.whole("--max-width", v, 16, 2047).toInt
+      o.copy(config = o.config.copy(frame = o.config.frame.copy(maxWidth = w)))
+    },
+    CommandLine.valued("--clock-mhz") { (o, v) =>
+      o.copy(clockMhz = CommandLine.number("--clock-mhz", v, "a frequency in MHz from 0 to 500")(f => f > 0 && f <= 500))
+    })
 
   /** Parses the arguments; Left is a one-line error. */
-  def parse(args: Seq[String]): Either[String, Options] = {
-    def loop(rest: List[String], o: Options): Either[String, Options] = rest match {
-      case Nil => Right(o)
-      case "--out" :: dir :: tail => loop(tail, o.copy(out = dir))
-      case "--config" :: name :: tail => OrbConfig.presets.get(name) match {
-        case Some(c) => loop(tail, o.copy(config = c, configName = name))
-        case None => Left(s"unknown --config '$name' (known: ${OrbConfig.presets.keys.toSeq.sorted.mkString(", ")})")
-      }
-      case "--max-width" :: n :: tail => n.toIntOption match {
-        case Some(w) if w >= 16 && w <= 2047 => loop(tail, o.copy(config = o.config.copy(frame = o.config.frame.copy(maxWidth = w))))
-        case _ => Left(s"--max-width takes a whole number from 16 to 2047, not '$n'")
-      }
-      case "--clock-mhz" :: f :: tail => f.toDoubleOption match {
-        case Some(mhz) if mhz > 0 && mhz <= 500 => loop(tail, o.copy(clockMhz = mhz))
-        case _ => Left(s"--clock-mhz takes a frequency in MHz from 0 to 500, not '$f'")
-      }
-      case opt :: Nil if valued(opt) => Left(s"$opt needs a value")
-      case other :: _ => Left(s"unknown argument '$other' (see --help)")
-    }
-    loop(args.toList, Options())
-  }
+  def parse(args: Seq[String]): Either[String, Options] =
+    CommandLine.attempt(CommandLine.parse(args, Options(), options))
 
   /** The SpinalHDL settings for the Cyclone II target: Altera device (memories inferred as M4K with synchronous
     * reads), plain Verilog, asynchronous active-high reset. */

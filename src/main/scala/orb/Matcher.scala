@@ -78,6 +78,13 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
     }
   }
 
+  /** What the matcher is doing, one thing at a time: an item is taken only when it is idle (and a rescan's start or
+    * a sweep's last clears are not pending). */
+  object Activity extends SpinalEnum(binaryOneHot) {
+    val IDLE, SCAN, RESCAN, SWEEP, KEY_END = newElement()
+  }
+  val activity = RegInit(Activity.IDLE)
+
   val stored = Reg(UInt(countWidth bits)) init 0
   val storedNow = Mux(frame.first && isKey, U(0, countWidth bits), stored)
   // registered: the store only changes while a keyframe loads, long before a scan counts its groups
@@ -118,18 +125,21 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
 
   // After a replacement: all scores read, P per clock, and the lowest (first on ties) becomes the weakest.
   val rescan = new Area {
-    val busy = Reg(Bool()) init False
+    def busy: Bool = activity === Activity.RESCAN
     val group = Reg(UInt(groupWidth + 1 bits)) init 0
     val issuing = busy && group < m.groups
     when(issuing) { group := group + 1 }
     // a clock after the replacement: its score reaches the RAM two clocks after it, before the first read does
     val starting = RegNext(load.keyFeature && load.replace) init False
-    when(starting) { busy := True; group := 0 }
+    when(starting) {
+      activity := Activity.RESCAN
+      group := 0
+    }
   }
 
   // Live features: the scan over the store, one group per clock.
   val scan = new Area {
-    val busy = Reg(Bool()) init False
+    def busy: Bool = activity === Activity.SCAN
     val group = Reg(UInt(groupWidth + 1 bits)) init 0
     val live = Reg(Entry())
     /** a group is read now (`busy` and `group < groups`), a register: whether the group read now is the last one is
@@ -143,7 +153,7 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
     }
     val start = item.fire && !frame.keyNow && !item.frameEnd
     when(start) {
-      busy := True
+      activity := Activity.SCAN
       group := 0
       issuing := groups =/= 0
       lastGroup := groups === 1
@@ -183,7 +193,7 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
 
   // Frame end of a live frame: every entry read in store order, the mutual ones emitted, all cleared.
   val sweep = new Area {
-    val busy = Reg(Bool()) init False
+    def busy: Bool = activity === Activity.SWEEP
     val entry = Reg(UInt(countWidth bits)) init 0
     /** entry < stored, a register beside the entry (the store does not change during a live frame's sweep) */
     val more = Reg(Bool()) init False
@@ -193,10 +203,10 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
       more := entry + 1 < stored
     }
     when(busy && !more) {
-      busy := False
+      activity := Activity.IDLE
     }
     when(item.fire && item.frameEnd && !frame.keyNow) {
-      busy := True
+      activity := Activity.SWEEP
       entry := 0
       more := stored =/= 0
     }
@@ -211,11 +221,16 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
 
   // Frame end of a keyframe: the scores in the cross words are replaced by cleared cross state, a group per clock.
   val keyEnd = new Area {
-    val busy = Reg(Bool()) init False
+    def busy: Bool = activity === Activity.KEY_END
     val group = Reg(UInt(groupWidth + 1 bits)) init 0
     when(busy) { group := group + 1 }
-    when(busy && group === m.groups - 1) { busy := False }
-    when(item.fire && item.frameEnd && frame.keyNow) { busy := True; group := 0 }
+    when(busy && group === m.groups - 1) {
+      activity := Activity.IDLE
+    }
+    when(item.fire && item.frameEnd && frame.keyNow) {
+      activity := Activity.KEY_END
+      group := 0
+    }
   }
 
   val popStages = MatcherConfig.popcountStages(m)
@@ -259,7 +274,11 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
     // busy until the new weakest is in place, so that the next keyframe feature compares against it: the last
     // group's result is the one no read follows
     val last = RegNext(valid && !Delay(read, levels - 1, init = False)) init False
-    when(last) { rescan.busy := False; weakest.score := accScore; weakest.index := accIndex }
+    when(last) {
+      activity := Activity.IDLE
+      weakest.score := accScore
+      weakest.index := accIndex
+    }
   }
 
   // The compare pipeline, stage by stage, side-band data delayed alongside.
@@ -281,7 +300,7 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
       // the lane's own copy of the live descriptor (kept apart, beside the lane's RAMs: one copy would drive all
       // four lanes' comparisons across the chip), copied while the scan is idle as `scan.live` is, by an enable
       // from the lane's own copy of the idle flag
-      val idle = RegNext(!scan.busy.getAheadValue()) init True
+      val idle = RegNext(activity.getAheadValue() =/= Activity.SCAN) init True
       idle.addAttribute("preserve")
       val liveDescriptor = Reg(cloneOf(item.descriptor))
       liveDescriptor.addAttribute("preserve")
@@ -364,7 +383,9 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
     val ratioSecond = RegNext((p.ratio * a.second).resize(distanceWidth + m.ratioFracBits + 1))
     val ratioOk = !p.ratioTest || ((a.best.distance << m.ratioFracBits).resize(distanceWidth + m.ratioFracBits + 1) < ratioSecond)
     val accepted = done && a.best.distance <= p.hammingThreshold && ratioOk
-    when(done || emptyDone) { scan.busy := False }
+    when(done || emptyDone) {
+      activity := Activity.IDLE
+    }
     // The decision registered: the mark's write and the correspondence's push leave a clock later (the next
     // feature's scan reads nothing for several clocks, and the live position stays until it starts).
     val mark = RegNext(accepted && p.crossCheck && a.best.wins) init False
@@ -423,8 +444,7 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
 
   // Ready for the next item when nothing is busy: a register, computed from the next values of the flags it depends
   // on, so no decision hangs on the handshake and nothing waits for the readiness's own logic.
-  val readyNext = !scan.busy.getAheadValue() && !sweep.busy.getAheadValue() && !sweep.drainingNext &&
-    !rescan.busy.getAheadValue() && !rescan.starting.getAheadValue() && !keyEnd.busy.getAheadValue() &&
+  val readyNext = activity.getAheadValue() === Activity.IDLE && !sweep.drainingNext && !rescan.starting.getAheadValue() &&
     (paced.roomForItem.getAheadValue() || paced.giveUp.getAheadValue())
   item.ready := RegNext(readyNext) init True
 

@@ -44,34 +44,27 @@ object Report {
   val blockNames: Seq[String] = Seq("core.tracker", "core.lines", "core.harris", "core.budget", "core.smoother",
     "core.orientation", "core.descriptors", "matcher")
 
-  def parse(args: Seq[String]): Either[String, Options] = {
-    def count(flag: String, n: String)(f: Int => Options, rest: List[String]): Either[String, Options] =
-      n.toIntOption.filter(_ > 0) match {
-        case Some(v) => loop(rest, f(v))
-        case None => Left(s"$flag takes a positive whole number, not '$n'")
-      }
-    def loop(rest: List[String], o: Options): Either[String, Options] = rest match {
-      case Nil => Right(o)
-      case "--out" :: d :: t => loop(t, o.copy(out = d))
-      case "--config" :: n :: t =>
-        if (OrbConfig.presets.contains(n)) loop(t, o.copy(configName = n))
-        else Left(s"unknown --config '$n' (known: ${OrbConfig.presets.keys.toSeq.sorted.mkString(", ")})")
-      case "--no-timing" :: t => loop(t, o.copy(timing = false))
-      case "--block-timing" :: t => loop(t, o.copy(blockTiming = true))
-      case "--calibrate" :: t => loop(t, o.copy(calibrate = true))
-      case "--only" :: names :: t =>
+  private val options: Seq[CommandLine.Opt[Options]] = {
+    import CommandLine.{flag, valued}
+    Seq(
+      valued("--out")((o, v) => o.copy(out = v)),
+      valued("--config")((o, v) => o.copy(configName = CommandLine.preset(v))),
+      flag("--no-timing")(_.copy(timing = false)),
+      flag("--block-timing")(_.copy(blockTiming = true)),
+      flag("--calibrate")(_.copy(calibrate = true)),
+      valued("--only") { (o, v) =>
         val known = "core" +: blockNames
-        names.split(",").map(_.trim).filterNot(known.contains) match {
-          case Array() => loop(t, o.copy(only = names.split(",").map(_.trim).toSeq))
-          case bad => Left(s"unknown --only name '${bad.head}' (known: ${known.mkString(", ")})")
-        }
-      case "--seeds" :: n :: t => count("--seeds", n)(v => o.copy(seeds = v), t)
-      case "--timing-minutes" :: n :: t => count("--timing-minutes", n)(v => o.copy(minutes = v), t)
-      case f :: Nil if Set("--out", "--config", "--timing-minutes", "--seeds", "--only")(f) => Left(s"$f needs a value")
-      case other :: _ => Left(s"unknown argument '$other' (see --help)")
-    }
-    loop(args.toList, Options())
+        val names = v.split(",").map(_.trim).toSeq
+        for (bad <- names.find(!known.contains(_)))
+          CommandLine.fail(s"unknown --only name '$bad' (known: ${known.mkString(", ")})")
+        o.copy(only = names)
+      },
+      valued("--seeds")((o, v) => o.copy(seeds = CommandLine.positive("--seeds", v))),
+      valued("--timing-minutes")((o, v) => o.copy(minutes = CommandLine.positive("--timing-minutes", v))))
   }
+
+  def parse(args: Seq[String]): Either[String, Options] =
+    CommandLine.attempt(CommandLine.parse(args, Options(), options))
 
   // ---- memories ----
 
@@ -181,7 +174,8 @@ object Report {
     "fmax_mhz" -> t.medianMhz,
     "fmax_min_mhz" -> t.minMhz,
     "routed" -> t.routed,
-    "seeds" -> t.runs.map(r => Json.obj("seed" -> r.seed, "fmax_mhz" -> r.fmaxMhz, "outcome" -> r.outcome, "seconds" -> r.seconds.round)),
+    "seeds" -> t.runs.map(r => Json.obj("seed" -> r.seed, "fmax_mhz" -> r.fmaxMhz, "outcome" -> r.outcome, "seconds" -> r.seconds.round,
+      "failing" -> r.failing.headOption)),
     "packed" -> t.packed,
     "critical_path" -> t.critical.flatMap(_.path).map(p => Json.obj(
       "from" -> p.from, "to" -> p.to, "delay_ns" -> p.delayNs, "logic_ns" -> p.logicNs, "routing_ns" -> p.routingNs,
@@ -199,7 +193,8 @@ object Report {
         s"${p.levels} logic levels, largest fan-out ${p.maxFanout} (`${p.maxFanoutNet}`)" +
         (if (p.rtlLines.isEmpty) "" else s"; RTL ${p.rtlLines.take(6).map("`" + _ + "`").mkString(", ")}")
     }
-    s"$head ($seeds; packed: ${t.packed})$path"
+    val failing = t.critical.flatMap(_.failing.headOption).fold("")(f => s"; $f (every one: `ecp5/${t.module}/slack_seedN.txt`)")
+    s"$head ($seeds; packed: ${t.packed})$path$failing"
   }
 
   /** The calibration designs through the proxy, unpacked then packed. */

@@ -58,19 +58,26 @@ object DetectorStudy {
       row("Harris maxima moved to the best candidate within 1 px", key, live, h, moved(key, km, t, 1), moved(live, lm, t, 1)))
   }
 
-  def main(args: Array[String]): Unit = {
-    def fail(msg: String): Nothing = { System.err.println(s"$app: $msg"); sys.exit(2) }
-    val known = Set("--key", "--live", "--homography", "--threshold")
-    if (args.contains("--help")) { println(s"usage: $app [--key A.png --live B.png --homography H.txt] [--threshold T]"); return }
-    if (args.length % 2 != 0) fail("every option takes a value (see --help)")
-    val opts = args.grouped(2).map { case Array(k, v) => if (known(k)) k -> v else fail(s"unknown argument '$k' (see --help)") }.toMap
-    val threshold = opts.get("--threshold").map(v => v.toLongOption.filter(_ >= 2).getOrElse(fail(s"--threshold takes a whole number >= 2, not '$v'")))
-      .getOrElse(1L << 14) // the detector study predates the feature budget: it compares detectors by threshold
-    val key = try Match.loadImage(opts.getOrElse("--key", "data/graf1.png"), "--key", cfg) catch { case e: Match.UsageError => fail(e.getMessage) }
-    val live = try Match.loadImage(opts.getOrElse("--live", "data/graf3.png"), "--live", cfg) catch { case e: Match.UsageError => fail(e.getMessage) }
-    val h = try Homography.load(opts.getOrElse("--homography", "data/graf_1to3.H.txt")) catch { case e: Exception => fail(s"--homography: ${e.getMessage}") }
+  val usage = s"usage: $app [--key A.png --live B.png --homography H.txt] [--threshold T]"
+
+  final case class Options(key: String = "data/graf1.png", live: String = "data/graf3.png",
+                           homography: String = "data/graf_1to3.H.txt",
+                           /** the detector study predates the feature budget: it compares detectors by threshold */
+                           threshold: Long = 1L << 14)
+
+  private val options: Seq[CommandLine.Opt[Options]] = Seq(
+    CommandLine.valued("--key")((o, v) => o.copy(key = v)),
+    CommandLine.valued("--live")((o, v) => o.copy(live = v)),
+    CommandLine.valued("--homography")((o, v) => o.copy(homography = v)),
+    CommandLine.valued("--threshold")((o, v) => o.copy(threshold = CommandLine.whole("--threshold", v, 2, Long.MaxValue))))
+
+  def main(args: Array[String]): Unit = Cli.main(app, usage, args.toSeq) {
+    val o = CommandLine.parse(args.toSeq, Options(), options)
+    val key = Match.loadImage(o.key, "--key", cfg)
+    val live = Match.loadImage(o.live, "--live", cfg)
+    val h = try Homography.load(o.homography) catch { case e: Exception => CommandLine.fail(s"--homography: ${e.getMessage}") }
     println(f"${"corner points"}%-72s ${"key"}%5s ${"live"}%5s ${"n"}%4s ${"ours"}%6s ${"OpenCV"}%6s")
-    for (r <- study(key, live, h, threshold))
+    for (r <- study(key, live, h, o.threshold))
       println(f"${r.name}%-72s ${r.keyCount}%5d ${r.liveCount}%5d ${r.n}%4d ${r.ours * 100}%5.1f%% ${r.openCv * 100}%5.1f%%")
   }
 }

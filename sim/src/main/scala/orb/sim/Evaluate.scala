@@ -90,31 +90,41 @@ object Evaluate {
     BitmapEncoder.saveBitmap(chart, file.getPath.stripSuffix(".png"), BitmapFormat.PNG)
   }
 
-  def main(args: Array[String]): Unit = {
-    def fail(msg: String): Nothing = { System.err.println(s"$app: $msg"); sys.exit(2) }
-    if (args.contains("--help")) { println(usage); return }
-    val valued = Set("--key", "--live", "--homography", "--out", "--harris-threshold", "--segment-threshold", "--features")
-    def options(rest: List[String], acc: Map[String, String]): Map[String, String] = rest match {
-      case Nil => acc
-      case "--no-segment-test" :: t => options(t, acc + ("--no-segment-test" -> ""))
-      case k :: v :: t if valued(k) => options(t, acc + (k -> v))
-      case k :: Nil if valued(k) => fail(s"$k needs a value")
-      case other :: _ => fail(s"unknown argument '$other' (see --help)")
-    }
-    val opts = options(args.toList, Map.empty)
-    for (k <- Seq("--key", "--live", "--homography", "--out") if !opts.contains(k)) fail(s"$k is required (see --help)")
-    if (opts.contains("--segment-threshold") && opts.contains("--no-segment-test")) fail("--segment-threshold and --no-segment-test contradict each other")
+  final case class Options(key: Option[String] = None, live: Option[String] = None, homography: Option[String] = None,
+                           out: Option[String] = None, threshold: Option[Long] = None,
+                           /** None: the configuration's default; Some(None): no segment test */
+                           segment: Option[Option[Int]] = None, features: Option[Int] = None)
+
+  private val options: Seq[CommandLine.Opt[Options]] = {
+    import CommandLine.{flag, valued, whole}
+    def segment(o: Options, s: Option[Int]): Options =
+      if (o.segment.exists(_.isDefined != s.isDefined)) CommandLine.fail("--segment-threshold and --no-segment-test contradict each other")
+      else o.copy(segment = Some(s))
+    Seq(
+      valued("--key")((o, v) => o.copy(key = Some(v))),
+      valued("--live")((o, v) => o.copy(live = Some(v))),
+      valued("--homography")((o, v) => o.copy(homography = Some(v))),
+      valued("--out")((o, v) => o.copy(out = Some(v))),
+      valued("--harris-threshold")((o, v) => o.copy(threshold = Some(whole("--harris-threshold", v, 0, 0xffffffffL)))),
+      valued("--segment-threshold")((o, v) => segment(o, Some(whole("--segment-threshold", v, 0, 255).toInt))),
+      flag("--no-segment-test")(o => segment(o, None)),
+      valued("--features")((o, v) => o.copy(features = Some(whole("--features", v, 0, BudgetConfig.targetMax).toInt))))
+  }
+
+  def main(args: Array[String]): Unit = Cli.main(app, usage, args.toSeq) {
+    val o = CommandLine.parse(args.toSeq, Options(), options)
+    def required(v: Option[String], name: String): String = v.getOrElse(CommandLine.fail(s"$name is required (see --help)"))
+    val (keyPath, livePath) = (required(o.key, "--key"), required(o.live, "--live"))
+    val (hPath, out) = (required(o.homography, "--homography"), required(o.out, "--out"))
     val cfg = OrbConfig.default
-    def whole(k: String, hi: Long): Option[Long] =
-      opts.get(k).map(v => v.toLongOption.filter(n => n >= 0 && n <= hi).getOrElse(fail(s"$k takes a whole number from 0 to $hi, not '$v'")))
     val defaults = cfg.defaultParams
-    val corners = CornerParams(whole("--harris-threshold", 0xffffffffL).getOrElse(defaults.threshold),
-      if (opts.contains("--no-segment-test")) None else whole("--segment-threshold", 255).map(_.toInt).orElse(defaults.segmentThreshold),
-      whole("--features", BudgetConfig.targetMax).map(_.toInt).getOrElse(defaults.target))
-    val key = try Match.loadImage(opts("--key"), "--key", cfg) catch { case e: Match.UsageError => fail(e.getMessage) }
-    val live = try Match.loadImage(opts("--live"), "--live", cfg) catch { case e: Match.UsageError => fail(e.getMessage) }
-    val h = try Homography.load(opts("--homography")) catch { case e: Exception => fail(s"--homography: ${e.getMessage}") }
-    val dir = new File(opts("--out")); dir.mkdirs()
+    val corners = CornerParams(o.threshold.getOrElse(defaults.threshold), o.segment.getOrElse(defaults.segmentThreshold),
+      o.features.getOrElse(defaults.target))
+    val key = Match.loadImage(keyPath, "--key", cfg)
+    val live = Match.loadImage(livePath, "--live", cfg)
+    val h = try Homography.load(hPath) catch { case e: Exception => CommandLine.fail(s"--homography: ${e.getMessage}") }
+    val dir = new File(out)
+    dir.mkdirs()
     val series = evaluate(key, live, h, cfg, corners)
     write(dir, series)
     val n = series.map(_.matches.size).min

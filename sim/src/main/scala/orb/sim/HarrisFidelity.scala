@@ -88,10 +88,11 @@ object HarrisFidelity {
 
   def main(args: Array[String]): Unit = {
     val cfg = OrbConfig.default
-    val cli = new Cli("orb.sim.HarrisFidelity", usage, withBins = false)
-    val o = cli.parse(args, cfg.harris.defaultThreshold, cfg.descriptor.angleBins)
-    println(s"Harris model vs float reference (OpenCV Sobel + sepFilter2D, doubles), threshold ${o.threshold}, border ${cfg.harris.border}")
-    println(header)
-    for (f <- o.images) println(row(measure(new java.io.File(f).getName, cli.load(f), cfg, o.threshold)))
+    Cli.main("orb.sim.HarrisFidelity", usage, args.toSeq) {
+      val o = Cli.fidelity(args.toSeq, cfg.harris.defaultThreshold, cfg.descriptor.angleBins, withBins = false)
+      println(s"Harris model vs float reference (OpenCV Sobel + sepFilter2D, doubles), threshold ${o.threshold}, border ${cfg.harris.border}")
+      println(header)
+      for (f <- o.images) println(row(measure(new java.io.File(f).getName, Cli.load(f), cfg, o.threshold)))
+    }
   }
 }

@@ -44,52 +44,47 @@ object Match {
     def corners: CornerParams = CornerParams(threshold, segment.getOrElse(config.harris.defaultParams.segmentThreshold), features)
   }
 
-  final class UsageError(msg: String) extends Exception(msg)
-  private def fail(msg: String): Nothing = throw new UsageError(msg)
+  private def fail(msg: String): Nothing = CommandLine.fail(msg)
 
-  private val valued = Set("--key", "--live", "--out", "--engine", "--homography", "--hamming", "--ratio",
-    "--harris-threshold", "--segment-threshold", "--config", "--wave-rows", "--trace", "--seed", "--features")
+  private val options: Seq[CommandLine.Opt[Options]] = {
+    import CommandLine.{flag, valued, whole}
+    def segment(o: Options, s: Option[Int]): Options =
+      if (o.segment.exists(_.isDefined != s.isDefined)) fail("--segment-threshold and --no-segment-test contradict each other")
+      else o.copy(segment = Some(s))
+    Seq(
+      valued("--key")((o, v) => o.copy(key = v)),
+      valued("--live")((o, v) => o.copy(live = v)),
+      valued("--out")((o, v) => o.copy(out = v)),
+      valued("--engine")((o, v) => o.copy(engine = CommandLine.choice("--engine", v, Seq("model", "rtl")))),
+      valued("--homography")((o, v) => o.copy(homography = Some(v))),
+      valued("--hamming")((o, v) => o.copy(params = o.params.copy(hammingThreshold = whole("--hamming", v, 0, 256).toInt))),
+      valued("--ratio") { (o, v) =>
+        val r = CommandLine.number("--ratio", v, "a number between 0 and 2")(r => r > 0 && r < 2)
+        val fracBits = o.config.matcher.ratioFracBits
+        val scaled = math.round(r * (1 << fracBits)).toInt min ((2 << fracBits) - 1)
+        o.copy(params = o.params.copy(ratio = Some(scaled)))
+      },
+      flag("--cross-check")(o => o.copy(params = o.params.copy(crossCheck = true))),
+      flag("--no-cross-check")(o => o.copy(params = o.params.copy(crossCheck = false))),
+      valued("--harris-threshold")((o, v) => o.copy(threshold = whole("--harris-threshold", v, 0, 0xffffffffL))),
+      valued("--features")((o, v) => o.copy(features = whole("--features", v, 0, BudgetConfig.targetMax).toInt)),
+      valued("--segment-threshold")((o, v) => segment(o, Some(whole("--segment-threshold", v, 0, 255).toInt))),
+      flag("--no-segment-test")(o => segment(o, None)),
+      valued("--config")((o, v) => o.copy(configName = CommandLine.preset(v))),
+      flag("--wave")(_.copy(wave = true)),
+      valued("--wave-rows")((o, v) => o.copy(waveRows = whole("--wave-rows", v, 1, 2047).toInt)),
+      valued("--trace") { (o, v) =>
+        v.split(",").toSeq.map(_.trim.toIntOption) match {
+          case Seq(Some(x), Some(y)) if x >= 0 && y >= 0 => o.copy(trace = Some((x, y)))
+          case _ => fail(s"--trace takes X,Y (two non-negative whole numbers), not '$v'")
+        }
+      },
+      valued("--seed")((o, v) => o.copy(seed = whole("--seed", v, Long.MinValue, Long.MaxValue))))
+  }
 
+  /** Throws `CommandLine.UsageError`. */
   def parse(args: Seq[String]): Options = {
-    def int(flag: String, v: String, lo: Long, hi: Long): Long =
-      v.toLongOption.filter(n => n >= lo && n <= hi).getOrElse(fail(s"$flag takes a whole number from $lo to $hi, not '$v'"))
-    def loop(rest: List[String], o: Options): Options = rest match {
-      case Nil => o
-      case "--key" :: v :: t => loop(t, o.copy(key = v))
-      case "--live" :: v :: t => loop(t, o.copy(live = v))
-      case "--out" :: v :: t => loop(t, o.copy(out = v))
-      case "--engine" :: v :: t =>
-        if (v != "model" && v != "rtl") fail(s"--engine is model or rtl, not '$v'") else loop(t, o.copy(engine = v))
-      case "--homography" :: v :: t => loop(t, o.copy(homography = Some(v)))
-      case "--hamming" :: v :: t => loop(t, o.copy(params = o.params.copy(hammingThreshold = int("--hamming", v, 0, 256).toInt)))
-      case "--ratio" :: v :: t =>
-        val r = v.toDoubleOption.filter(r => r > 0 && r < 2).getOrElse(fail(s"--ratio takes a number between 0 and 2, not '$v'"))
-        val scaled = math.round(r * (1 << o.config.matcher.ratioFracBits)).toInt min ((2 << o.config.matcher.ratioFracBits) - 1)
-        loop(t, o.copy(params = o.params.copy(ratio = Some(scaled))))
-      case "--cross-check" :: t => loop(t, o.copy(params = o.params.copy(crossCheck = true)))
-      case "--no-cross-check" :: t => loop(t, o.copy(params = o.params.copy(crossCheck = false)))
-      case "--harris-threshold" :: v :: t => loop(t, o.copy(threshold = int("--harris-threshold", v, 0, 0xffffffffL)))
-      case "--features" :: v :: t => loop(t, o.copy(features = int("--features", v, 0, BudgetConfig.targetMax).toInt))
-      case "--segment-threshold" :: v :: t =>
-        if (o.segment.contains(None)) fail("--segment-threshold and --no-segment-test contradict each other")
-        loop(t, o.copy(segment = Some(Some(int("--segment-threshold", v, 0, 255).toInt))))
-      case "--no-segment-test" :: t =>
-        if (o.segment.exists(_.isDefined)) fail("--segment-threshold and --no-segment-test contradict each other")
-        loop(t, o.copy(segment = Some(None)))
-      case "--config" :: v :: t =>
-        if (!OrbConfig.presets.contains(v)) fail(s"unknown --config '$v' (known: ${OrbConfig.presets.keys.toSeq.sorted.mkString(", ")})")
-        loop(t, o.copy(configName = v))
-      case "--wave" :: t => loop(t, o.copy(wave = true))
-      case "--wave-rows" :: v :: t => loop(t, o.copy(waveRows = int("--wave-rows", v, 1, 2047).toInt))
-      case "--trace" :: v :: t => v.split(",").toSeq.map(_.trim.toIntOption) match {
-        case Seq(Some(x), Some(y)) if x >= 0 && y >= 0 => loop(t, o.copy(trace = Some((x, y))))
-        case _ => fail(s"--trace takes X,Y (two non-negative whole numbers), not '$v'")
-      }
-      case "--seed" :: v :: t => loop(t, o.copy(seed = int("--seed", v, Long.MinValue, Long.MaxValue)))
-      case flag :: Nil if valued(flag) => fail(s"$flag needs a value")
-      case other :: _ => fail(s"unknown argument '$other' (see --help)")
-    }
-    val o = loop(args.toList, Options())
+    val o = CommandLine.parse(args, Options(), options)
     if (o.key == null || o.live == null || o.out == null) fail("--key, --live and --out are required (see --help)")
     if (o.wave && o.engine != "rtl") fail("--wave needs --engine rtl")
     if (o.segment.exists(_.isDefined) && o.config.harris.segment.isEmpty) fail(s"--config ${o.configName} has no segment test")
@@ -173,17 +168,17 @@ object Match {
 
   /** The feature budget of the keyframe and of the live frame (the model's: the rtl engine equals it), and why no
     * corner can be dropped for lack of time. */
-  def budgetSummary(o: Options, key: GrayImage, live: GrayImage): Seq[(String, Any)] = {
+  def budgetSummary(o: Options, key: GrayImage, live: GrayImage): Json.Obj = {
     val cfg = o.config
     val core = CoreModel.run(cfg, SystemModel.pairBeats(key, live), o.corners)
     val processed = core.budget
-    def frame(i: Int): Seq[(String, Any)] = processed.lift(i).fold(Seq[(String, Any)]()) { case (cut, sel) =>
-      Seq("cut_level" -> (if (cut.history) Some(cut.level) else None), "cut_remainder" -> (if (cut.history) Some(cut.remainder) else None),
+    def frame(i: Int): Json.Obj = processed.lift(i).fold(Json.obj()) { case (cut, sel) =>
+      Json.obj("cut_level" -> (if (cut.history) Some(cut.level) else None), "cut_remainder" -> (if (cut.history) Some(cut.remainder) else None),
         "selected" -> sel.selected.size, "deselected" -> sel.deselected)
     }
     // the processed frames: key (cut), keyframe, live (cut), live; with another live size two more frames are not processed
-    Seq("target" -> o.features, "cell" -> s"${cfg.budget.cellWidth}x${cfg.budget.cellHeight}",
-      "per_cell" -> Seq("key" -> cfg.perCellFor(key.width), "live" -> cfg.perCellFor(live.width)),
+    Json.obj("target" -> o.features, "cell" -> s"${cfg.budget.cellWidth}x${cfg.budget.cellHeight}",
+      "per_cell" -> Json.obj("key" -> cfg.perCellFor(key.width), "live" -> cfg.perCellFor(live.width)),
       "keyframe" -> frame(1), "live" -> frame(processed.size - 1),
       "timing_drops" -> ("none possible: the budget bounds what reaches the engines and the matcher (OrbConfig.budgetService); " +
         "only a correspondence consumer that stalls could cost features, and this run's takes every one"))
@@ -228,24 +223,11 @@ object Match {
     out
   }
 
-  /** A small JSON writer: nested Seq[(String, Any)] are objects; Option is null or its value. */
-  def json(fields: Seq[(String, Any)], indent: String = ""): String = {
-    def value(v: Any): String = v match {
-      case None | null => "null"
-      case Some(x) => value(x)
-      case s: String => "\"" + s.flatMap { case '"' => "\\\""; case '\\' => "\\\\"; case c if c < ' ' => f"\\u${c.toInt}%04x"; case c => c.toString } + "\""
-      case d: Double => if (d.isNaN || d.isInfinite) "null" else f"$d%.6f"
-      case obj: Seq[_] => json(obj.asInstanceOf[Seq[(String, Any)]], indent + "  ")
-      case x => x.toString
-    }
-    fields.map { case (k, v) => s"""$indent  "$k": ${value(v)}""" }.mkString("{\n", ",\n", s"\n$indent}")
-  }
-
   /** Exit status: 0 done, 2 bad arguments or input files (one line on `err`), 1 an I/O error while writing. */
   def run(args: Seq[String], err: java.io.PrintStream = System.err): Int = {
-    val o = try parse(args) catch { case e: UsageError => err.println(s"$app: ${e.getMessage}"); return 2 }
+    val o = try parse(args) catch { case e: CommandLine.UsageError => err.println(s"$app: ${e.getMessage}"); return 2 }
     try { execute(o); 0 } catch {
-      case e: UsageError => err.println(s"$app: ${e.getMessage}"); 2
+      case e: CommandLine.UsageError => err.println(s"$app: ${e.getMessage}"); 2
       case e: java.io.IOException => err.println(s"$app: ${e.getMessage}"); 1
     }
   }
@@ -269,23 +251,23 @@ object Match {
     writeFeatures(new File(dir, "live_features.csv"), liveFeatures, cfg)
     ImageIO.write(drawMatches(key, live, outcome.correspondences, h), "png", new File(dir, "matches.png"))
     val inliers = h.map(m => Homography.quality(outcome.correspondences, m))
-    val summary = Seq[(String, Any)](
+    val summary = Json.obj(
       "engine" -> o.engine, "config" -> o.configName,
-      "key" -> Seq("path" -> o.key, "width" -> key.width, "height" -> key.height, "features" -> keyFeatures.size),
-      "live" -> Seq("path" -> o.live, "width" -> live.width, "height" -> live.height, "features" -> liveFeatures.size),
-      "params" -> Seq("features" -> o.features, "harris_threshold" -> o.threshold, "segment_threshold" -> o.corners.segmentThreshold, "hamming" -> o.params.hammingThreshold,
+      "key" -> Json.obj("path" -> o.key, "width" -> key.width, "height" -> key.height, "features" -> keyFeatures.size),
+      "live" -> Json.obj("path" -> o.live, "width" -> live.width, "height" -> live.height, "features" -> liveFeatures.size),
+      "params" -> Json.obj("features" -> o.features, "harris_threshold" -> o.threshold, "segment_threshold" -> o.corners.segmentThreshold, "hamming" -> o.params.hammingThreshold,
         "ratio" -> o.params.ratio.map(r => r.toDouble / (1 << cfg.matcher.ratioFracBits)), "cross_check" -> o.params.crossCheck),
       // The stream sent (SystemModel.pairBeats): the counters count every frame of it; the correspondences are the
       // last frame's.
       "stream" -> SystemModel.pairDescription(key, live),
       "budget" -> budgetSummary(o, key, live),
-      "counters" -> outcome.counters,
+      "counters" -> Json.Obj(outcome.counters),
       "correspondences" -> outcome.correspondences.size,
       "cycles" -> outcome.cycles, "pixels" -> outcome.pixels,
       "pixels_per_clock" -> outcome.cycles.map(c => outcome.pixels.toDouble / c),
       "wall_seconds" -> wall,
       "inliers_3px" -> inliers.map(_.inliers3), "inliers_8px" -> inliers.map(_.inliers8))
-    write(new File(dir, "summary.json"))(_.println(json(summary)))
+    write(new File(dir, "summary.json"))(_.println(Json.render(summary)))
     for (t <- o.trace) {
       val text = Trace.report(t, cfg, key, live, o, run, outcome.rtl)
       write(new File(dir, "trace.txt"))(_.print(text))

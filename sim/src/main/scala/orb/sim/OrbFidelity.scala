@@ -78,14 +78,15 @@ object OrbFidelity {
 
   def main(args: Array[String]): Unit = {
     val base = OrbConfig.default
-    val cli = new Cli("orb.sim.OrbFidelity", usage, withBins = true)
-    val o = cli.parse(args, base.harris.defaultThreshold, base.descriptor.angleBins)
-    println(s"ORB model vs OpenCV ORB (nlevels 1) at the model's Harris corners, threshold ${o.threshold}")
-    println("engine: OpenCV given our angle; end2end: OpenCV's own angle; Hamming bits of 256, mean")
-    println(header)
-    for (f <- o.images; n <- o.bins) {
-      val cfg = base.copy(descriptor = OrbDescriptorConfig(angleBins = n))
-      println(row(measure(new java.io.File(f).getName, cli.load(f), cfg, o.threshold), n))
+    Cli.main("orb.sim.OrbFidelity", usage, args.toSeq) {
+      val o = Cli.fidelity(args.toSeq, base.harris.defaultThreshold, base.descriptor.angleBins, withBins = true)
+      println(s"ORB model vs OpenCV ORB (nlevels 1) at the model's Harris corners, threshold ${o.threshold}")
+      println("engine: OpenCV given our angle; end2end: OpenCV's own angle; Hamming bits of 256, mean")
+      println(header)
+      for (f <- o.images; n <- o.bins) {
+        val cfg = base.copy(descriptor = OrbDescriptorConfig(angleBins = n))
+        println(row(measure(new java.io.File(f).getName, Cli.load(f), cfg, o.threshold), n))
+      }
     }
   }
 }

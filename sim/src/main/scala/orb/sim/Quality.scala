@@ -117,46 +117,47 @@ object Quality {
     Row(p, o, openCv(p, 500, 500, 8), openCv(p, o.keyFeatures, o.liveFeatures, 1))
   }
 
-  def main(args: Array[String]): Unit = {
-    def fail(msg: String): Nothing = { System.err.println(s"$app: $msg"); sys.exit(2) }
-    var cfg = OrbConfig.default
-    var target = cfg.budget.defaultTarget
-    var segment = cfg.harris.defaultParams.segmentThreshold
-    var threshold = cfg.harris.defaultThreshold
-    var hamming = cfg.matcher.defaultHammingThreshold
-    def whole(flag: String, v: String, lo: Int, hi: Int): Int =
-      v.toIntOption.filter(n => n >= lo && n <= hi).getOrElse(fail(s"$flag takes $lo..$hi, not '$v'"))
-    var specs = List[String]()
-    var rest = args.toList
-    while (rest.nonEmpty) rest match {
-      case "--help" :: _ => println(s"usage: $app [--target N] [--harris-threshold T] [--segment-threshold T] [--hamming N] [--cell WxHxK] [KEY,LIVE,REFERENCE ...]  (REFERENCE: H.txt | disparity:D.png | ransac)"); return
-      case "--target" :: v :: t =>
-        target = v.toIntOption.filter(n => n >= 0 && n <= BudgetConfig.targetMax).getOrElse(fail(s"--target takes 0..${BudgetConfig.targetMax}, not '$v'"))
-        rest = t
-      case "--segment-threshold" :: v :: t => segment = Some(whole("--segment-threshold", v, 0, 255)); rest = t
-      case "--harris-threshold" :: v :: t => threshold = whole("--harris-threshold", v, 0, Int.MaxValue).toLong; rest = t
-      case "--hamming" :: v :: t => hamming = whole("--hamming", v, 0, 256); rest = t
-      case "--cell" :: v :: t => v.split("x").map(_.toIntOption) match {
-        case Array(Some(w), Some(h), Some(k)) =>
-          cfg = try cfg.copy(budget = cfg.budget.copy(cellWidth = w, cellHeight = h, perCell = k)) catch { case e: IllegalArgumentException => fail(e.getMessage) }
-          rest = t
-        case _ => fail(s"--cell takes WxHxK (cell width, height, corners per cell), not '$v'")
-      }
-      case s :: t if !s.startsWith("--") => specs :+= s; rest = t
-      case other :: _ => fail(s"unknown argument '$other' (see --help)")
-    }
+  val usage = s"usage: $app [--target N] [--harris-threshold T] [--segment-threshold T] [--hamming N] [--cell WxHxK] " +
+    "[KEY,LIVE,REFERENCE ...]  (REFERENCE: H.txt | disparity:D.png | ransac)"
+
+  final case class Options(cfg: OrbConfig, target: Int, segment: Option[Int], threshold: Long, hamming: Int,
+                           pairs: Seq[String] = Nil)
+
+  private val options: Seq[CommandLine.Opt[Options]] = {
+    import CommandLine.{valued, whole}
+    Seq(
+      valued("--target")((o, v) => o.copy(target = whole("--target", v, 0, BudgetConfig.targetMax).toInt)),
+      valued("--segment-threshold")((o, v) => o.copy(segment = Some(whole("--segment-threshold", v, 0, 255).toInt))),
+      valued("--harris-threshold")((o, v) => o.copy(threshold = whole("--harris-threshold", v, 0, 0xffffffffL))),
+      valued("--hamming")((o, v) => o.copy(hamming = whole("--hamming", v, 0, 256).toInt)),
+      valued("--cell") { (o, v) =>
+        v.split("x").map(_.toIntOption) match {
+          case Array(Some(w), Some(h), Some(k)) =>
+            try o.copy(cfg = o.cfg.copy(budget = o.cfg.budget.copy(cellWidth = w, cellHeight = h, perCell = k)))
+            catch { case e: IllegalArgumentException => CommandLine.fail(e.getMessage) }
+          case _ => CommandLine.fail(s"--cell takes WxHxK (cell width, height, corners per cell), not '$v'")
+        }
+      })
+  }
+
+  def main(args: Array[String]): Unit = Cli.main(app, usage, args.toSeq) {
+    val defaults = OrbConfig.default
+    val init = Options(defaults, defaults.budget.defaultTarget, defaults.harris.defaultParams.segmentThreshold,
+      defaults.harris.defaultThreshold, defaults.matcher.defaultHammingThreshold)
+    val o = CommandLine.parse(args.toSeq, init, options, positional = Some((o: Options, p: String) => o.copy(pairs = o.pairs :+ p)))
+    val (cfg, target, segment, threshold, hamming) = (o.cfg, o.target, o.segment, o.threshold, o.hamming)
     val pairs = try {
-      if (specs.isEmpty) defaultPairs
-      else specs.map { s => s.split(",") match {
+      if (o.pairs.isEmpty) defaultPairs
+      else o.pairs.map { s => s.split(",") match {
         case Array(k, l, ref) =>
           val (key, live) = (load(k), load(l))
           val truth = if (ref == "ransac") ransacTruth(key, live)
             else if (ref.startsWith("disparity:")) DisparityTruth(load(ref.stripPrefix("disparity:")))
             else HomographyTruth(Homography.load(ref))
           Pair(s"$k -> $l", key, live, truth)
-        case _ => fail(s"a pair is KEY,LIVE,REFERENCE, not '$s'")
+        case _ => CommandLine.fail(s"a pair is KEY,LIVE,REFERENCE, not '$s'")
       } }
-    } catch { case e: IllegalArgumentException => fail(e.getMessage) }
+    } catch { case e: IllegalArgumentException => CommandLine.fail(e.getMessage) }
     val corners = CornerParams(threshold, segment, target)
     println(s"$app: target $target features per frame, cells ${cfg.budget.cellWidth} x ${cfg.budget.cellHeight} px keeping " +
       s"${cfg.budget.perCell} (by line length: ${cfg.perCellSteps.map { case (w, k) => s"$k from $w px" }.mkString(", ")}); " +

@@ -18,7 +18,7 @@ object Waves {
       "4 feature budget (selected corners)" -> (flat(top.core.budget.io.selected) ++ Seq(top.core.budget.io.deselected)),
       "5 orientation" -> flat(top.core.orientation.io.oriented),
       "6 descriptors (feature stream)" -> flat(top.core.io.features),
-      "7 matcher" -> (Seq(m.scan.busy, m.sweep.busy, m.decide.done) ++ flat(m.compare.acc) ++ flat(m.scan.live).filterNot(_.getBitsWidth == 256)),
+      "7 matcher" -> (Seq(m.activity, m.decide.done) ++ flat(m.compare.acc) ++ flat(m.scan.live).filterNot(_.getBitsWidth == 256)),
       "8 correspondences" -> flat(top.io.correspondences),
       "9 registers (Avalon-MM)" -> flat(top.io.ctrl))
   }
