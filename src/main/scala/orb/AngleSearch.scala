@@ -23,17 +23,18 @@ class AngleSearch(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) exten
   /** a = hi 2^L + lo: lo fills a multiplier's operand, and so does the tangent */
   val loWidth = Arith.multiplierWidth
   require(tWidth <= Arith.multiplierWidth && momentWidth - loWidth <= Arith.multiplierWidth)
-  val nodes = Array.fill(4 * steps.size + 4)(Node())
-  val links = (0 until nodes.size - 1).map(i => StageLink(nodes(i), nodes(i + 1)))
+  // the stages: `at(i)` is the beat i clocks after the input, a register between each
+  val pipeline = new StagePipeline
+  def at(i: Int): Node = pipeline.node(i)
 
   val IN = Payload(OrientedCorner(f, h, d))
-  nodes(0).driveFrom(io.input)((n, p) => n(IN) := p)
+  at(0).driveFrom(io.input)((n, p) => n(IN) := p)
   // Beside the search travel the corner and its tags, not its moments: they are rebuilt at the end from the
   // magnitudes the search carries anyway and their signs.
   val beside = new Area {
-    val n = nodes(0)
+    val n = at(0)
     val CORNER = n.insert(n(IN).corner)
-    val START_ROW = n.insert(n(IN).startRow)
+    val ROW_TAG = n.insert(n(IN).rowTag)
     val FRAME_TAG = n.insert(n(IN).frameTag)
     val KEYFRAME = n.insert(n(IN).keyframe)
     val FRAME_END = n.insert(n(IN).frameEnd)
@@ -44,9 +45,9 @@ class AngleSearch(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) exten
 
   // the magnitudes at node 0, their comparison and the swap at node 1
   val fold = new Area {
-    val AX = nodes(0).insert(nodes(0)(IN).m10.abs)
-    val AY = nodes(0).insert(nodes(0)(IN).m01.abs)
-    val n = nodes(1)
+    val AX = at(0).insert(at(0)(IN).m10.abs)
+    val AY = at(0).insert(at(0)(IN).m01.abs)
+    val n = at(1)
     val ax = n(AX)
     val ay = n(AY)
     val swap = ay > ax
@@ -58,57 +59,57 @@ class AngleSearch(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) exten
   // products of the registered a and T_j at 4i + 3, their sum at 4i + 4, the comparison at 4i + 5.
   val counts = scala.collection.mutable.ArrayBuffer[Payload[UInt]]()
   for ((step, i) <- steps.zipWithIndex) {
-    val n = nodes(4 * i + 2)
+    val n = at(4 * i + 2)
     val before = if (i == 0) U(0, countWidth bits) else n(counts(i - 1))
     val BEFORE = n.insert(before)
     val idx = (before +^ (step - 1)).resize(countWidth + 1)
     val table = Vec(tangents.map(t => U(t, tWidth bits)))
     val TRY = n.insert(idx < m && n(fold.A) =/= 0)
     val TANGENT = n.insert(table(idx.resize(log2Up(m max 2))))
-    val p = nodes(4 * i + 3)
+    val p = at(4 * i + 3)
     // a's copy that feeds only the multipliers (their input registers): loaded with the step's valid, so that it is
     // no twin of the pipeline's own register of a (which would be merged into it and feed more than multipliers)
     val aForProducts = RegNextWhen(n(fold.A), n.isValid)
     aForProducts.addAttribute("preserve")
     val LO = p.insert(aForProducts(loWidth - 1 downto 0) * p(TANGENT))
     val HI = p.insert(aForProducts(momentWidth - 1 downto loWidth) * p(TANGENT))
-    val s = nodes(4 * i + 4)
+    val s = at(4 * i + 4)
     val PRODUCT = s.insert((s(HI) << loWidth).resize(momentWidth + tWidth) + s(LO).resize(momentWidth + tWidth))
-    val c = nodes(4 * i + 5)
+    val c = at(4 * i + 5)
     val take = c(TRY) && ((c(fold.B).resize(momentWidth + d.tanFracBits) |<< d.tanFracBits) >= c(PRODUCT))
     counts += c.insert(Mux(take, c(BEFORE) + step, c(BEFORE)))
   }
   val unfold = new Area {
-    val at = nodes(4 * steps.size + 2)
-    val count = at(counts.last)
-    val q = Mux(at(fold.SWAP), U(2 * m, countWidth + 1 bits) - count, count.resize(countWidth + 1))
+    val u = at(4 * steps.size + 2)
+    val count = u(counts.last)
+    val q = Mux(u(fold.SWAP), U(2 * m, countWidth + 1 bits) - count, count.resize(countWidth + 1))
     val n = d.angleBins
     val bin = UInt(d.binWidth + 1 bits)
-    val right = !at(beside.M10_NEGATIVE)
-    val up = !at(beside.M01_NEGATIVE)
+    val right = !u(beside.M10_NEGATIVE)
+    val up = !u(beside.M01_NEGATIVE)
     when(right && up) { bin := q.resized }
       .elsewhen(!right && up) { bin := (U(n / 2, d.binWidth + 1 bits) - q).resized }
       .elsewhen(!right && !up) { bin := (U(n / 2, d.binWidth + 1 bits) + q).resized }
       .otherwise { bin := Mux(q === 0, U(0, d.binWidth + 1 bits), (U(n, d.binWidth + 1 bits) - q).resized) }
-    val BIN = at.insert(bin.resize(d.binWidth))
+    val BIN = u.insert(bin.resize(d.binWidth))
     // |m10| is a, or b after a swap; |m01| the other
     def moment(magnitude: UInt, negative: Bool): SInt = {
       val m = magnitude.intoSInt.resize(momentWidth)
       Mux(negative, -m, m)
     }
-    val M10 = at.insert(moment(Mux(at(fold.SWAP), at(fold.B), at(fold.A)), at(beside.M10_NEGATIVE)))
-    val M01 = at.insert(moment(Mux(at(fold.SWAP), at(fold.A), at(fold.B)), at(beside.M01_NEGATIVE)))
+    val M10 = u.insert(moment(Mux(u(fold.SWAP), u(fold.B), u(fold.A)), u(beside.M10_NEGATIVE)))
+    val M01 = u.insert(moment(Mux(u(fold.SWAP), u(fold.A), u(fold.B)), u(beside.M01_NEGATIVE)))
   }
-  val out = nodes.last
+  val out = at(4 * steps.size + 3)
   io.output.valid := out.isValid
   io.output.corner := out(beside.CORNER)
   io.output.m10 := out(unfold.M10)
   io.output.m01 := out(unfold.M01)
-  io.output.startRow := out(beside.START_ROW)
+  io.output.rowTag := out(beside.ROW_TAG)
   io.output.frameTag := out(beside.FRAME_TAG)
   io.output.keyframe := out(beside.KEYFRAME)
   io.output.frameEnd := out(beside.FRAME_END)
   io.output.end := out(beside.END)
   io.output.bin := out(unfold.BIN)
-  Builder(links)
+  pipeline.build()
 }

@@ -18,6 +18,13 @@ case class FrameConfig(maxWidth: Int = 1024, maxHeight: Int = 2047, coordWidth: 
   def coord(): UInt = UInt(coordWidth bits)
   /** an event counter of the register map (wraps) */
   def counter(): UInt = UInt(counterWidth bits)
+  /** rows counted since reset, wrapping (`RowClock`): a corner's row tag is compared with the stream's within a few
+    * dozen rows, so half the range must exceed that wait (`OrbConfig` checks it) */
+  def rowTagWidth: Int = 12
+  /** frames counted since reset, wrapping: a corner is decided in its own frame or the next */
+  def frameTagWidth: Int = 4
+  def rowTag(): UInt = UInt(rowTagWidth bits)
+  def frameTag(): UInt = UInt(frameTagWidth bits)
 }
 
 /** Harris-Stephens corner detector.
@@ -342,13 +349,21 @@ object MatcherConfig {
   }
 }
 
-/** The whole core. Later stages (descriptor, store, matcher) add their blocks here. */
+/** The whole core: frame, detector, feature budget, descriptor unit and matcher, and the checks that tie them together
+  * (the budget's service bound, the queue depths, the row tags). */
 case class OrbConfig(frame: FrameConfig = FrameConfig(), harris: HarrisConfig = HarrisConfig(),
                      descriptor: OrbDescriptorConfig = OrbDescriptorConfig(), matcher: MatcherConfig = MatcherConfig(),
                      budget: BudgetConfig = BudgetConfig()) {
   // Every sample (18 px + 3 px of blur) inside the image, and row cy + 22, where a descriptor starts, in the frame.
   require(harris.border >= OrbDescriptorConfig.startRowOffset && harris.border >= OrbDescriptorConfig.patchRadius,
     s"the border must be at least ${OrbDescriptorConfig.startRowOffset}: a corner's descriptor starts at row y + 22")
+  // A corner's row tag is compared with the smoothed stream's row count from the orientation of its last row (row
+  // cy + 15, 7 rows before its descriptor may start) until its descriptor starts or it is refused: at most
+  // `slackRows` rows after the start row, plus a clock for each corner ahead of it in the ready queue. Half the tag's
+  // range must exceed that, so the difference never wraps.
+  require((1 << (frame.rowTagWidth - 1)) > OrbDescriptorConfig.startRowOffset + descriptor.slackRows + descriptor.readyQueueDepth,
+    s"rowTagWidth ${frame.rowTagWidth} is too narrow for the descriptor unit's wait")
+  require(frame.frameTagWidth >= 2, "a corner's frame tag must tell its frame from the next and the one before")
   /** Raw-image rows kept by the shared line buffer: as many as its most demanding reader needs (the orientation
     * disc, 31 rows; Harris reads the newest 9, the smoother the newest 7). */
   def rawRows: Int = HarrisConfig.rawRows max (2 * OrbDescriptorConfig.patchRadius + 1)

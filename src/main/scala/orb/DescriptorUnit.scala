@@ -32,7 +32,6 @@ object EngineState extends SpinalEnum {
   * overwritten before the engine takes it is dropped (counted). The camera never waits. */
 class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) extends Component {
   import OrbDescriptorConfig.{blurRadius, sampleReach}
-  import OrientationUnit.{frameTagWidth, rowCountWidth}
   val io = new Bundle {
     val smoothed = slave Flow (SmoothedPixel(f))
     val corners = slave Flow (OrientedCorner(f, h, d))
@@ -58,7 +57,7 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
 
   case class RowInfo() extends Bundle {
     val active = Bool()
-    val frame = UInt(frameTagWidth bits)
+    val frame = f.frameTag()
   }
 
   /** The smoothed stream, two clocks late: beat (x, y) carries smoothed pixel (x - 3, y - 3) of raw row y, written
@@ -74,13 +73,7 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
     val slot = Reg(UInt(slotWidth bits)) init 0
     val slotNext = Mux(startsRow, nextSlot(slot), slot)
     slot := slotNext
-    val rowCount = Reg(UInt(rowCountWidth bits)) init 0
-    when(startsRow) {
-      rowCount := rowCount + 1
-    }
-    val frame = Reg(UInt(frameTagWidth bits)) init 0
-    val frameNext = Mux(startsFrame, frame + 1, frame)
-    frame := frameNext
+    val clock = new RowClock(f, startsRow, startsFrame)
     /** the newest beat started a row */
     val rowStart = RegNext(startsRow) init False
     // For the last rows: was the first pixel of the row processed, and in which frame. A corner's rows are good
@@ -89,7 +82,7 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
     history.foreach(_.active.init(False))
     val thisRow = RowInfo()
     thisRow.active := s.pixel.active
-    thisRow.frame := frameNext
+    thisRow.frame := clock.frameNext
     when(startsRow) {
       history := Vec(thisRow +: history.init)
     }
@@ -118,8 +111,9 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
   case class ReadyCorner() extends Bundle {
     val corner = CornerHw(f, h)
     val bin = UInt(d.binWidth bits)
-    val startRow = UInt(rowCountWidth bits)
-    val frameTag = UInt(frameTagWidth bits)
+    /** the row whose start means the corner's 37 smoothed rows are complete: its own row + `startRowOffset` */
+    val startRow = f.rowTag()
+    val frameTag = f.frameTag()
     val keyframe, frameEnd = Bool()
     val end = FrameEndInfo()
   }
@@ -132,6 +126,7 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
   val ready = StreamFifo(ReadyCorner(), d.readyQueueDepth)
   ready.io.push.valid := io.corners.valid
   ready.io.push.payload.assignSomeByName(io.corners.payload)
+  ready.io.push.payload.startRow := io.corners.rowTag + OrbDescriptorConfig.startRowOffset
   val queueDrop = io.corners.valid && !ready.io.push.ready
 
   /** cos and sin of a bin from a quarter of the table (`OrbDescriptorConfig.cosSin`): the magnitudes of the bin
@@ -190,7 +185,7 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
     val c = head.payload.item
     // rows since the patch was complete (negative: not yet), for the head of the clock before: it is the head's
     // now unless the head left then or a row started since
-    val since = RegNext((ring.rowCount - c.startRow).asSInt)
+    val since = RegNext((ring.clock.row - c.startRow).asSInt)
     val computed = RegNext(head.valid && !c.frameEnd && !head.fire) init False
     val current = computed && !ring.rowStart
     val due = current && !since.msb
@@ -215,7 +210,7 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
     }
   }
 
-  /** The engine's state lives here; `begin` is its only entry. */
+  /** The engine's state lives here: `begin` takes a corner, `release` frees the engine; the rest it decides itself. */
   class DescriptorEngine extends Area {
     val state = RegInit(EngineState.IDLE)
     val corner = Reg(ReadyCorner())
@@ -239,6 +234,11 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
       fetch.group := 0
       collect.done := 0
       collect.lastGroup := Bool(groups == 1)
+    }
+
+    /** The finished feature was handed on, or the abandoned corner counted: ready for the next corner. */
+    def release(): Unit = {
+      state := EngineState.IDLE
     }
 
     when(ring.rowStart && running) {
@@ -633,11 +633,11 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
   output.keyframe := Mux(finished, engine.corner.keyframe, dispatch.c.end.keyframe)
   output.descriptor := engine.collect.descriptor
   when(finished && output.ready) {
-    engine.state := EngineState.IDLE
+    engine.release()
   }
   val engineDrop = engine.state === EngineState.ABANDONED
   when(engineDrop) {
-    engine.state := EngineState.IDLE
+    engine.release()
   }
   io.features << output.halfPipe()
 

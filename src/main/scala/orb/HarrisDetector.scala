@@ -48,9 +48,9 @@ class HarrisDetector(f: FrameConfig, h: HarrisConfig, columnRows: Int, stages: H
     val cornerCount = out(f.counter())
   }
   val reach = HarrisConfig.reach
-  val nodes = Array.fill(stages.output + 1)(Node())
-  val links = (0 until stages.output).map(i => StageLink(nodes(i), nodes(i + 1)))
-  def at(i: Int): Node = nodes(i)
+  // the stages: `at(i)` is the beat i clocks after the input, a register between each
+  val pipeline = new StagePipeline
+  def at(i: Int): Node = pipeline.node(i)
 
   // The run-time parameters, registered here: they come from the register file across the chip and fan out to
   // every comparator (a write takes effect a clock later; they are constant within a frame).
@@ -220,5 +220,5 @@ class HarrisDetector(f: FrameConfig, h: HarrisConfig, columnRows: Int, stages: H
     io.cornerCount := count
   }
 
-  Builder(links)
+  pipeline.build()
 }

@@ -65,13 +65,7 @@ class OrientationUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, c
     val end = Delay(io.columns.pixel.end, latency)
     // compared at the input and delayed with the beat: a register, not a comparison, where it is used
     val frameStart = Delay(io.columns.valid && io.columns.pixel.x === 0 && io.columns.pixel.y === 0, latency, init = False)
-    // Rows and frames counted since reset, the same way the descriptor unit counts them on its stream.
-    val rowCount = Reg(UInt(rowCountWidth bits)) init 0
-    val frame = Reg(UInt(frameTagWidth bits)) init 0
-    val rowNow = Mux(valid && x === 0, rowCount + 1, rowCount)
-    val frameNow = Mux(frameStart, frame + 1, frame)
-    when(valid && x === 0) { rowCount := rowCount + 1 }
-    when(frameStart) { frame := frameNow }
+    val clock = new RowClock(f, valid && x === 0, frameStart)
   }
 
   // The beat one clock after `sums`: the chains add its sums.
@@ -82,8 +76,8 @@ class OrientationUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, c
     val keyframe = RegNext(sums.keyframe)
     val ends = RegNext(sums.ends) init False
     val end = RegNext(sums.end)
-    val rowNow = RegNext(sums.rowNow)
-    val frameNow = RegNext(sums.frameNow)
+    val rowNow = RegNext(sums.clock.rowNext)
+    val frameNow = RegNext(sums.clock.frameNext)
   }
 
   // The chains: tap j (0 .. 2R) adds the sums of the column R - j columns right of a disc's centre when the disc's
@@ -180,9 +174,8 @@ class OrientationUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, c
   val emit = Delay(finishHere && sums.active, 2, init = False)
   val finishedCorner = RegNextWhen(head.corner, finishHere)
   val beatD = new Area {
-    // The beat of the last column, in row cy + R; the descriptor's 37 smoothed rows are complete when row cy + 22
-    // starts.
-    val startRow = RegNext(beat.rowNow + (OrbDescriptorConfig.startRowOffset - R))
+    // The beat of the last column, in row cy + R: the corner's own row is R rows back.
+    val rowTag = RegNext(beat.rowNow - R)
     val frameTag = RegNext(beat.frameNow)
     val keyframe = RegNext(beat.keyframe)
     val ends = RegNext(beat.valid && beat.ends) init False
@@ -196,7 +189,7 @@ class OrientationUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, c
   o.m01 := chains.tv(0).resize(momentWidth)
   o.m10.assignDontCare()
   o.bin.assignDontCare()
-  o.startRow := beatD.startRow
+  o.rowTag := beatD.rowTag
   o.frameTag := beatD.frameTag
   o.keyframe := beatD.keyframe
   o.frameEnd := beatD.ends
@@ -236,10 +229,6 @@ object OrientationUnit {
   val acc2Width: Int = log2Up(r * (2 * r + 1) * ((2 * r + 1) * 255) + 1)
   /** |m10|, |m01| <= 255 * sum |u| over the disc < 2^21 */
   val momentWidth: Int = 24
-  /** rows counted since reset, wrapping: only differences of a few rows are ever used */
-  val rowCountWidth: Int = 12
-  /** frames counted since reset, wrapping: tells a corner's frame from the next few */
-  val frameTagWidth: Int = 4
   /** taps of the moment chains that share one copy of the beat's valid */
   val chainGroup: Int = 4
 }

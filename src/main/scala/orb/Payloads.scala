@@ -52,10 +52,9 @@ case class OrientedCorner(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfi
   val corner = CornerHw(f, h)
   val m10, m01 = SInt(OrientationUnit.momentWidth bits)
   val bin = UInt(d.binWidth bits)
-  /** rows are counted from reset, across frames: the row whose start means the corner's smoothed patch is complete */
-  val startRow = UInt(OrientationUnit.rowCountWidth bits)
-  /** the corner's frame, counted from reset (wrapping) */
-  val frameTag = UInt(OrientationUnit.frameTagWidth bits)
+  /** the corner's row and frame on the stream, counted from reset (`RowClock`) */
+  val rowTag = f.rowTag()
+  val frameTag = f.frameTag()
   /** the corner's frame is a keyframe */
   val keyframe = Bool()
   /** not a corner: the end of a processed frame, after all of its corners (`end` says how it ended) */

@@ -16,12 +16,13 @@ class Smoother(f: FrameConfig, columnRows: Int) extends Component {
     val columns = slave Flow (LineColumn(f, columnRows))
     val smoothed = master Flow (SmoothedPixel(f))
   }
-  val nodes = Array.fill(Smoother.latency + 1)(Node())
-  val links = (0 until Smoother.latency).map(i => StageLink(nodes(i), nodes(i + 1)))
+  // the stages: `at(i)` is the beat i clocks after the input, a register between each
+  val pipeline = new StagePipeline
+  def at(i: Int): Node = pipeline.node(i)
 
   val PIXEL = Payload(TrackedPixel(f))
   val TAPS = Payload(Vec(UInt(8 bits), blurKernel.size))
-  nodes(0).driveFrom(io.columns) { (n, p) =>
+  at(0).driveFrom(io.columns) { (n, p) =>
     n(PIXEL) := p.pixel
     for (r <- blurKernel.indices) n(TAPS)(r) := p.column(r)
   }
@@ -29,36 +30,36 @@ class Smoother(f: FrameConfig, columnRows: Int) extends Component {
   /** Symmetric 7-tap weighted sum in four registered steps: pre-add the mirrored taps at `pre`, weigh them (shifts
     * and one add each) at the next node, add them in pairs at the one after, and the two halves at the last. */
   private def gauss7(values: collection.IndexedSeq[UInt], pre: Int, width: Int): UInt = {
-    val pairs = nodes(pre).insert(Vec(Seq((0, 6), (1, 5), (2, 4)).map { case (i, j) =>
+    val pairs = at(pre).insert(Vec(Seq((0, 6), (1, 5), (2, 4)).map { case (i, j) =>
       values(i).resize(width) + values(j).resize(width)
     } :+ values(3).resize(width)))
-    val terms = nodes(pre + 1).insert(Vec(nodes(pre + 1)(pairs).zip(blurKernel.take(4)).map { case (v, k) => constMul(v, k, width) }))
-    val t = nodes(pre + 2)(terms)
-    val halves = nodes(pre + 2).insert(Vec(t(0) + t(1), t(2) + t(3)))
-    nodes(pre + 3)(halves)(0) + nodes(pre + 3)(halves)(1)
+    val terms = at(pre + 1).insert(Vec(at(pre + 1)(pairs).zip(blurKernel.take(4)).map { case (v, k) => constMul(v, k, width) }))
+    val t = at(pre + 2)(terms)
+    val halves = at(pre + 2).insert(Vec(t(0) + t(1), t(2) + t(3)))
+    at(pre + 3)(halves)(0) + at(pre + 3)(halves)(1)
   }
 
   // 255 * 256 = 65280: a column sum fits 16 bits, a 2-D sum 24 bits (the 2-D weights sum to 2^16).
-  val COLUMN = nodes(Smoother.columnSum).insert(gauss7(nodes(0)(TAPS), 0, 16))
+  val COLUMN = at(Smoother.columnSum).insert(gauss7(at(0)(TAPS), 0, 16))
   val row = new Area {
-    val n = nodes(Smoother.rowPre)
+    val n = at(Smoother.rowPre)
     val last7 = lastValid(n(COLUMN), 7, n.isValid)
-    val SUM = nodes(Smoother.rowSum).insert(gauss7(last7, Smoother.rowPre, 24))
+    val SUM = at(Smoother.rowSum).insert(gauss7(last7, Smoother.rowPre, 24))
     // Rounded half up: the integer part plus the first fraction bit (an 8-bit increment, in a clock of its own).
-    val sum = nodes(Smoother.round)(SUM)
-    val ROUNDED = nodes(Smoother.round).insert((sum(23 downto 16) +^ sum(15 downto 15)).resize(8))
+    val sum = at(Smoother.round)(SUM)
+    val ROUNDED = at(Smoother.round).insert((sum(23 downto 16) +^ sum(15 downto 15)).resize(8))
   }
 
-  val out = nodes(Smoother.latency)
+  val out = at(Smoother.latency)
   io.smoothed.valid := out.isValid
   io.smoothed.pixel := out(PIXEL)
   io.smoothed.smoothed := out(row.ROUNDED)
 
-  Builder(links)
+  pipeline.build()
 }
 
 object Smoother {
-  /** nodes: the column sum's four steps end at `columnSum`, the row sum's at `rowSum`, then the rounding, and a
+  /** stages: the column sum's four steps end at `columnSum`, the row sum's at `rowSum`, then the rounding, and a
     * register to the descriptor store's write data */
   val columnSum: Int = 3
   val rowPre: Int = columnSum + 1

@@ -21,9 +21,11 @@ class ReportSpec extends AnyFunSuite {
   test("the proxy's wrapper synthesises, and plain registers move into the RAM and multiplier blocks") {
     val dir = new File("target/report-test/probes")
     for ((make, expected) <- Seq[(() => Component, String)](
-      (() => new Ecp5Proxy.RamProbe) -> "ram_ports=1 ram_ffs=16 mult_inputs=0 mult_outputs=0 mult_ffs=0 mult_constant_pins=0",
+      (() => new Ecp5Proxy.RamProbe) -> "ram_ports=1 ram_ffs=16 mult_inputs=0 mult_constant_inputs=0 mult_outputs=0 mult_ffs=0 mult_constant_pins=0 inverted_enables=0",
       // both operand registers and the product register (16 + 16 + 32 flip-flops)
-      (() => new Ecp5Proxy.MulProbe) -> "ram_ports=0 ram_ffs=0 mult_inputs=2 mult_outputs=1 mult_ffs=64 mult_constant_pins=5"
+      (() => new Ecp5Proxy.MulProbe) -> "ram_ports=0 ram_ffs=0 mult_inputs=2 mult_constant_inputs=0 mult_outputs=1 mult_ffs=64 mult_constant_pins=5 inverted_enables=0",
+      // the variable operand's register and the product register; the constant operand registered with them
+      (() => new Ecp5Proxy.ConstMulProbe) -> "ram_ports=0 ram_ffs=0 mult_inputs=1 mult_constant_inputs=1 mult_outputs=1 mult_ffs=48 mult_constant_pins=5 inverted_enables=0"
     )) {
       val r = Generate.spinalConfig(dir.getPath).generate(make())
       val work = new File(dir, r.toplevelName)
@@ -31,7 +33,8 @@ class ReportSpec extends AnyFunSuite {
       assert(Ecp5Proxy.packRegisters(work) == expected, r.toplevelName)
       val packed = scala.io.Source.fromFile(new File(work, "packed.json")).mkString
       if (r.toplevelName == "RamProbe") assert(packed.contains("\"REGMODE_B\": \"OUTREG\"") || packed.contains("\"REGMODE_A\": \"OUTREG\""))
-      else assert(packed.contains("\"REG_OUTPUT_CLK\": \"CLK0\"") && packed.contains("\"REG_INPUTA_CLK\": \"CLK0\""))
+      else assert(packed.contains("\"REG_OUTPUT_CLK\": \"CLK0\"") && packed.contains("\"REG_INPUTA_CLK\": \"CLK0\"") &&
+        packed.contains("\"REG_INPUTB_CLK\": \"CLK0\""))
     }
     // The wrapper: every input from the ring, every output into the tree; no input pin.
     val ports = Seq(Ecp5Proxy.Port("clk", input = true, 1), Ecp5Proxy.Port("reset", input = true, 1),

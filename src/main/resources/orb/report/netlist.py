@@ -22,7 +22,9 @@ block's slow unregistered output to the next logic. This pass does what Quartus 
   one common enable that feeds only multiplier inputs becomes an input register (the flip-flop is removed once
   nothing else reads it); the product is registered likewise when every used P bit feeds exactly one such
   flip-flop; each distinct enable takes one of the block's CE0..CE3 pins (Cyclone II's multiplier registers have
-  clock enables too).
+  clock enables too); an input of constants only is registered with the other input (a register of a constant is
+  that constant);
+- an active-low enable reaches a block's enable pin through an inverter LUT, as Quartus would do it.
 
 Prints one line: counts of what was packed.
 
@@ -91,11 +93,10 @@ def pack(src, dst, top):
             return None
         ce_mux = p.get("CEMUX", "1").strip()
         ce = "1" if ce_mux == "1" else k.get("CE", ["1"])[0]
-        if ce_mux == "INV":
-            return None
         if ce != "1" and not allow_enable:
             return None
-        return k["CLK"][0], ce
+        # an enable active low: ("INV", net), which a block's enable pin takes through an inverter
+        return k["CLK"][0], ("INV", ce) if ce_mux == "INV" else ce
 
     def registers_behind(outputs, clock, allow_enable):
         """the flip-flops that `outputs` (pin, bit) each feed alone: same clock (`clock`, or the first one's when
@@ -112,7 +113,27 @@ def pack(src, dst, top):
             found.append((pin, s[0][0]))
         return clock, enable, found
 
-    packed = {"ram_ports": 0, "ram_ffs": 0, "mult_inputs": 0, "mult_outputs": 0, "mult_ffs": 0, "mult_constant_pins": 0}
+    next_bit = [1 + max((b for c in cells.values() for bits in c["connections"].values() for b in bits
+                         if isinstance(b, int)), default=1)]
+
+    inverted = {}
+
+    def inverter(net):
+        """a LUT that inverts `net` (as Quartus inverts an active-low enable into a block's enable); its output net"""
+        if net in inverted:
+            return inverted[net]
+        out = next_bit[0]
+        inverted[net] = out
+        next_bit[0] += 1
+        cells[f"orb_inverter_{out}"] = {
+            "hide_name": 0, "type": "LUT4", "parameters": {"INIT": "0101010101010101"}, "attributes": {},
+            "port_directions": {"A": "input", "B": "input", "C": "input", "D": "input", "Z": "output"},
+            "connections": {"A": [net], "B": ["0"], "C": ["0"], "D": ["0"], "Z": [out]}}
+        packed["inverted_enables"] += 1
+        return out
+
+    packed = {"ram_ports": 0, "ram_ffs": 0, "mult_inputs": 0, "mult_constant_inputs": 0, "mult_outputs": 0, "mult_ffs": 0,
+              "mult_constant_pins": 0, "inverted_enables": 0}
 
     # ---- RAM output registers ----
     sinks = bit_sinks()
@@ -131,6 +152,8 @@ def pack(src, dst, top):
             if behind is None:
                 continue
             _, enable, ffs = behind
+            if isinstance(enable, tuple):
+                enable = inverter(enable[1])
             c["parameters"][f"REGMODE_{x}"] = "OUTREG"
             c["connections"][f"OCE{x}"] = [enable]
             for pin, ff in ffs:
@@ -194,6 +217,15 @@ def pack(src, dst, top):
                 k[pin] = cells[ff]["connections"]["DI"]
                 absorbed_inputs.add(ff)
             packed["mult_inputs"] += 1
+        # an input of constants only (a product by a constant table entry) is the same constant through a register:
+        # registered with the other input, so that the block is not timed as if neither were (mixed modes)
+        for x, other in (("A", "B"), ("B", "A")):
+            constant = all(not isinstance(k.get(f"{x}{i}", ["0"])[0], int) for i in range(18))
+            if constant and p.get(f"REG_INPUT{x}_CLK", "NONE") == "NONE" and p.get(f"REG_INPUT{other}_CLK", "NONE") != "NONE":
+                p[f"REG_INPUT{x}_CLK"] = p[f"REG_INPUT{other}_CLK"]
+                p[f"REG_INPUT{x}_CE"] = p[f"REG_INPUT{other}_CE"]
+                p[f"REG_INPUT{x}_RST"] = p[f"REG_INPUT{other}_RST"]
+                packed["mult_constant_inputs"] += 1
         # output
         if p.get("REG_OUTPUT_CLK", "NONE") == "NONE":
             used = [(f"P{i}", k.get(f"P{i}", ["x"])[0]) for i in range(36)]
@@ -213,7 +245,7 @@ def pack(src, dst, top):
         if clock is not None:
             k["CLK0"] = [clock]
             for i, enable in enumerate(enables):
-                k[f"CE{i}"] = [enable]
+                k[f"CE{i}"] = [inverter(enable[1]) if isinstance(enable, tuple) else enable]
             c.setdefault("port_directions", {}).update({"CLK0": "input"})
             c["port_directions"].update({f"CE{i}": "input" for i in range(len(enables))})
     # Constant control pins of a multiplier are configuration on Cyclone II (and tie-offs inside the ECP5 block), not
