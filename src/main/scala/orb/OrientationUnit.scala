@@ -57,12 +57,15 @@ class OrientationUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, c
     val T = Vec(heights.map(dh => Delay(t(dh).asUInt.resize(columnSumWidth), latency - 1 - tLatency)))
     val TV = Vec(heights.map(dh => tv(dh - 1).resize(weightedSumWidth)))
     val valid = Delay(io.columns.valid, latency, init = False)
-    val x = Delay(io.columns.pixel.x, latency)
-    val y = Delay(io.columns.pixel.y, latency)
-    val active = Delay(io.columns.pixel.active, latency)
-    val keyframe = Delay(io.columns.pixel.keyframe, latency)
-    val ends = Delay(io.columns.pixel.ends, latency)
-    val end = Delay(io.columns.pixel.end, latency)
+    // the beat's pixel beside its sums, and a clock before (the head is compared with it a clock ahead)
+    val pixelAhead = Delay(io.columns.pixel, latency - 1)
+    val pixel = RegNext(pixelAhead)
+    val x = pixel.x
+    val y = pixel.y
+    val active = pixel.active
+    val keyframe = pixel.keyframe
+    val ends = pixel.ends
+    val end = pixel.end
     // compared at the input and delayed with the beat: a register, not a comparison, where it is used
     val frameStart = Delay(io.columns.valid && io.columns.pixel.x === 0 && io.columns.pixel.y === 0, latency, init = False)
     val clock = new RowClock(f, valid && x === 0, frameStart)
@@ -139,8 +142,8 @@ class OrientationUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, c
   // head loaded in the last clock has no comparisons of its own yet and waits a clock: its last column is at least
   // two pixels after the head before it (the 3x3 suppression), and corners reach the queue rows before it.
   val ahead = new Area {
-    val x = Delay(io.columns.pixel.x, sums.latency - 1)
-    val y = Delay(io.columns.pixel.y, sums.latency - 1)
+    val x = sums.pixelAhead.x
+    val y = sums.pixelAhead.y
     val at = RegNext(y === head.lastY && x === head.lastX) init False
     val past = RegNext(y > head.lastY || (y === head.lastY && x > head.lastX)) init False
     /** the head is the one the comparisons were made with */
