@@ -388,27 +388,36 @@ case class OrbConfig(frame: FrameConfig = FrameConfig(), harris: HarrisConfig = 
   require(descriptor.readyQueueDepth >= budgetPerBand * bandsQueued(OrbDescriptorConfig.patchRadius,
     OrbDescriptorConfig.startRowOffset + descriptor.slackRows), "the descriptor unit's ready queue is too short for the budget's bands")
 
-  /** Clocks the descriptor stage needs per feature in a busy stretch: the matcher's scan, or the engine's time and
-    * its turnaround, whichever is longer; a keyframe feature replacing a weaker entry takes less. */
-  def clocksPerFeature: Int = matcher.clocksPerFeature max (DescriptorUnit.maxClocks(descriptor) + 2 * DescriptorUnit.dispatchClocks)
+  /** Clocks the descriptor stage needs per feature in a busy stretch: the matcher's scan, or the engine's front end
+    * and the dispatch, whichever is longer (the engine starts a corner while the one before drains); a keyframe
+    * feature replacing a weaker entry takes less. */
+  def clocksPerFeature: Int =
+    matcher.clocksPerFeature max (DescriptorUnit.fetchClocks(descriptor) + DescriptorUnit.dispatchClocks)
 
   /** The latest the last of `n` corners released together into an idle descriptor unit has its descriptor, in
-    * clocks after their release: one engine, at most `DescriptorUnit.maxClocks` a corner, starting a corner
-    * `DescriptorUnit.dispatchClocks` after its release or after handing the previous feature on, which it does only
-    * once the matcher has taken the one before (no credit for the output's registers), the matcher taking one feature
-    * per `matcher.clocksPerFeature`. Every time here only grows when a corner comes later or takes longer (max-plus),
-    * so corners released together bound any window of corners released over time. */
+    * clocks after their release. One engine with two slots: it starts a corner `DescriptorUnit.dispatchClocks` after
+    * its release, after the front end has fetched the previous corner (at most `DescriptorUnit.fetchClocks` after
+    * that one's start) and after the corner two before has handed its feature on (its slot); a corner finishes at
+    * most `DescriptorUnit.maxClocks` after its start; a finished feature is handed on once the matcher has taken the
+    * one before (no credit for the output's registers), the matcher taking one feature per
+    * `matcher.clocksPerFeature`. Every time here only grows when a corner comes later or takes longer (max-plus), so
+    * corners released together bound any window of corners released over time. */
   def windowClocks(n: Int): Long = {
-    val engine = DescriptorUnit.maxClocks(descriptor).toLong
+    val toFetched = DescriptorUnit.fetchClocks(descriptor).toLong
+    val toFinished = DescriptorUnit.maxClocks(descriptor).toLong
     val gap = DescriptorUnit.dispatchClocks.toLong
-    var handedOn = Long.MinValue / 4
-    var taken = Long.MinValue / 4
+    val never = Long.MinValue / 4
+    var fetched = never
+    var handedOn = Vector(never, never) // the corner two before, the one before
+    var taken = never
     var finished = 0L
     for (_ <- 0 until n) {
-      val start = gap max (handedOn + gap)
-      finished = start + engine
-      handedOn = (finished max taken) + 1
-      taken = (handedOn + 2) max (taken + matcher.clocksPerFeature)
+      val start = gap max (fetched + gap) max (handedOn.head + gap)
+      fetched = start + toFetched
+      finished = start + toFinished
+      val handed = (finished max taken) + 1
+      taken = (handed + 2) max (taken + matcher.clocksPerFeature)
+      handedOn = Vector(handedOn(1), handed)
     }
     finished
   }

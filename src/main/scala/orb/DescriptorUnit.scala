@@ -5,9 +5,10 @@ import spinal.lib._
 import orb.model.DescriptorSchedule
 import orb.model.DescriptorSchedule.{groups, lanesPerPort, pointsPerGroup, testsPerGroup}
 
-/** What the descriptor engine is doing. */
+/** What a slot of the descriptor engine holds. */
 object EngineState extends SpinalEnum {
-  /** no corner; reading a corner's points; its descriptor is complete; its rows were overwritten before it was */
+  /** no corner; a corner being described; its finished feature; a corner whose rows were overwritten before its
+    * descriptor was complete */
   val IDLE, RUN, FINISHED, ABANDONED = newElement()
 }
 
@@ -27,8 +28,13 @@ object EngineState extends SpinalEnum {
   * the registered lanes beside the RAM, the RAM's data is registered on the way out (the block's output register),
   * and each lane gets its byte back through two registered levels of selection, then the comparisons.
   *
+  * The engine holds two corners in two slots, used in turn: a corner starts as soon as the front end has fetched
+  * the previous corner's last group (and the slot of the corner before that has handed its feature on), so its
+  * front end fills behind the previous corner's groups while they drain; every group in flight carries its slot's
+  * tag, and a corner abandoned because its rows were overwritten voids only its own groups.
+  *
   * Corners are taken in raster order and their features leave in the same order. A consumer that waits holds the
-  * finished feature in the engine (no FIFO RAM): corners wait in the ready queue, and only a corner whose rows are
+  * finished features in the slots (no FIFO RAM): corners wait in the ready queue, and only a corner whose rows are
   * overwritten before the engine takes it is dropped (counted). The camera never waits. */
 class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) extends Component {
   import OrbDescriptorConfig.{blurRadius, sampleReach}
@@ -192,8 +198,7 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
     val late = since.asUInt >= d.slackRows
     val row = ring.history(since.asUInt.resize(log2Up(d.slackRows max 2)))
     val dataOk = row.active && row.frame === c.frameTag
-    val idle = engine.state === EngineState.IDLE
-    val startNext = RegNext(due && !late && dataOk && idle && !head.fire) init False
+    val startNext = RegNext(due && !late && dataOk && engine.canBegin && !head.fire) init False
     val refuseNext = RegNext(due && (late || !dataOk) && !head.fire) init False
     // the newest patch row (cy + 18) is in the slot of raw row cy + 21, `since + 1` rows back; the oldest 36 more
     val back = ring.slot.resize(slotWidth + 2).asSInt - since.resize(slotWidth + 2) - S(patchRows, slotWidth + 2 bits)
@@ -203,21 +208,26 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
     val start = startNext && !ring.rowStart
     val refuse = refuseNext
     // A frame end leaves when every corner before it has: the engine idle.
-    val marker = head.valid && c.frameEnd && idle
+    val marker = head.valid && c.frameEnd && engine.idle
     head.ready := start || refuse || (marker && output.ready)
     when(start) {
       engine.begin(head.payload, base, rowsLeft)
     }
   }
 
-  /** The engine's state lives here: `begin` takes a corner, `release` frees the engine; the rest it decides itself. */
-  class DescriptorEngine extends Area {
+  /** One corner in the engine, from its start until its feature is handed on: what the front end needs of it (the
+    * bin's cos and sin, the patch's base slot, the column), its rows' deadline, and its collected tests. */
+  class EngineSlot(val tag: Boolean) extends Area {
     val state = RegInit(EngineState.IDLE)
     val corner = Reg(ReadyCorner())
     val cos, sin = Reg(UInt(magnitudeWidth bits))
     val cosNegative, sinNegative = Reg(Bool())
     val base = Reg(UInt(slotWidth bits))
     val rowsLeft = Reg(UInt(log2Up(d.slackRows + 1) bits))
+    /** groups collected, and whether the next one is the last (a register beside the count) */
+    val done = Reg(UInt(log2Up(groups + 1) bits)) init 0
+    val lastGroup = Reg(Bool()) init False
+    val descriptor = Reg(Bits(OrbDescriptorConfig.descriptorBits bits))
     val running = state === EngineState.RUN
     /** a row start overwrote the oldest row before the descriptor was complete */
     val abandon = ring.rowStart && running && rowsLeft === 1
@@ -231,18 +241,62 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
       sinNegative := c.sinNegative
       base := b
       rowsLeft := left
-      fetch.group := 0
-      collect.done := 0
-      collect.lastGroup := Bool(groups == 1)
+      done := 0
+      lastGroup := Bool(groups == 1)
     }
 
-    /** The finished feature was handed on, or the abandoned corner counted: ready for the next corner. */
+    /** A group's results collected: the descriptor is complete after the last (unless abandoned in that clock). */
+    def collected(results: Bits): Unit = {
+      descriptor := results ## descriptor(descriptor.high downto testsPerGroup)
+      done := done + 1
+      lastGroup := done === groups - 2
+      when(lastGroup && !abandon) {
+        state := EngineState.FINISHED
+      }
+    }
+
+    /** The finished feature was handed on, or the abandoned corner counted: free for a corner. */
     def release(): Unit = {
       state := EngineState.IDLE
     }
 
     when(ring.rowStart && running) {
       rowsLeft := rowsLeft - 1
+    }
+    when(abandon) {
+      state := EngineState.ABANDONED
+    }
+  }
+
+  /** The engine: `begin` takes a corner into the next slot, `handOn` frees the slot whose feature left; the rest it
+    * decides itself. */
+  class DescriptorEngine extends Area {
+    val slots = Seq(new EngineSlot(tag = false), new EngineSlot(tag = true))
+    /** a field of the slot named by `tag` */
+    def pick[T <: Data](tag: Bool)(field: EngineSlot => T): T = Mux(tag, field(slots(1)), field(slots(0)))
+    /** the slot named by `tag` is abandoned in this clock */
+    def abandons(tag: Bool): Bool = pick(tag)(_.abandon)
+    /** the slot whose feature leaves next: the oldest corner in the engine */
+    val outTag = RegInit(False)
+
+    def begin(c: PreparedCorner, b: UInt, left: UInt): Unit = {
+      for (s <- slots) {
+        when(nextTag === Bool(s.tag)) {
+          s.begin(c, b, left)
+        }
+      }
+      fetch.group := 0
+      fetch.tag := nextTag
+    }
+
+    /** The oldest corner's feature was handed on, or its abandonment counted. */
+    def handOn(): Unit = {
+      for (s <- slots) {
+        when(outTag === Bool(s.tag)) {
+          s.release()
+        }
+      }
+      outTag := !outTag
     }
 
     /** Advances the front end: low while the issue stage repeats a group (registered: see `issue`). */
@@ -261,22 +315,43 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
       advanceCopies(steps % advanceCopies.size)
     }
     def step[T <: Data](v: T): T = RegNextWhen(v, enable())
-    def stepValid(v: Bool): Bool = {
-      val r = RegNextWhen(v, enable()) init False
-      when(abandon) {
-        r := False
-      }
+    /** Whether a front-end stage holds a group, and of which slot. */
+    case class Token() extends Bundle {
+      val valid, tag = Bool()
+    }
+    /** `t` into a register of the front end; a group whose slot is abandoned as it loads is void. */
+    def stepToken(t: Token): Token = {
+      val enabled = enable()
+      val r = Reg(Token())
+      r.valid.init(False)
+      val loaded = Mux(enabled, t, r)
+      r.tag := loaded.tag
+      r.valid := loaded.valid && !abandons(loaded.tag)
       r
     }
 
     // ---- front end: depends on nothing read ----
     val fetch = new Area {
       val group = Reg(UInt(log2Up(groups + 1) bits)) init groups
-      val valid = running && group < groups
+      /** the slot of the corner fetched last */
+      val tag = RegInit(True)
+      val valid = group < groups
       when(advance && valid) {
         group := group + 1
       }
+      when(valid && abandons(tag)) {
+        group := groups
+      }
+      val token = Token()
+      token.valid := valid
+      token.tag := tag
     }
+    /** the slot the next corner takes */
+    val nextTag = !fetch.tag
+    /** a corner may start: the front end has fetched the previous corner's groups and the next slot is free */
+    val canBegin = !fetch.valid && pick(nextTag)(_.state === EngineState.IDLE)
+    /** no corner in the engine */
+    val idle = !fetch.valid && slots.map(_.state === EngineState.IDLE).reduce(_ && _)
     /** The pattern as magnitudes and signs: the multipliers see only non-negative operands (no sign extension). */
     val pattern = new Area {
       /** a group's points, |x| and x < 0 then |y| and y < 0 each, the first point in the low bits */
@@ -293,7 +368,7 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
       }
       // the table read in parts, each part's word registered beside it, then the part picked into a register, then
       // a copy of it that feeds only the multipliers (their input registers, across the chip)
-      val valid = stepValid(stepValid(stepValid(fetch.valid)))
+      val token = stepToken(stepToken(stepToken(fetch.token)))
       val index = fetch.group.resize(log2Up(groups))
       val table = Arith.SplitTable(rom, pointsPerGroup * 2 * fieldWidth, DescriptorUnit.tableParts)
       val words = step(table.words(index))
@@ -307,9 +382,13 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
       def y(i: Int): UInt = field(2 * i + 1).resize(patternWidth).asUInt
       def yNegative(i: Int): Bool = field(2 * i + 1).msb
     }
-    // the multipliers' other operands, in plain registers (no enable): the blocks' input registers
-    val cosM = RegNext(cos)
-    val sinM = RegNext(sin)
+    // the multipliers' other operands, in plain registers (no enable): the blocks' input registers, of the slot of
+    // the group the pattern stage loads
+    val patternTag = pattern.token.tag.getAheadValue()
+    val cosM = RegNext(pick(patternTag)(_.cos))
+    val sinM = RegNext(pick(patternTag)(_.sin))
+    val cosNegative = RegNext(pick(patternTag)(_.cosNegative))
+    val sinNegative = RegNext(pick(patternTag)(_.sinNegative))
     val productWidth = patternWidth + magnitudeWidth
     /** |x cos|, |y sin|, |x sin|, |y cos|; x' = x cos - y sin = sx (|x cos| -+ |y sin|) and y' = x sin + y cos =
       * sy (|x sin| +- |y cos|), with the signs of the terms */
@@ -318,7 +397,7 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
       val xSubtract, ySubtract, xNegative, yNegative = Bool()
     }
     val products = new Area {
-      val valid = stepValid(pattern.valid)
+      val token = stepToken(pattern.token)
       val p = (0 until pointsPerGroup).map { i =>
         val o = Products()
         o.xc := pattern.x(i) * cosM
@@ -370,12 +449,12 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
       o
     }
     val totals = new Area {
-      val valid = stepValid(products.valid)
+      val token = stepToken(products.token)
       val x = products.p.map(p => step(total(addSub(p.xc, p.ys, p.xSubtract), p.xNegative)))
       val y = products.p.map(p => step(total(addSub(p.xs, p.yc, p.ySubtract), p.yNegative)))
     }
     val sums = new Area {
-      val valid = stepValid(totals.valid)
+      val token = stepToken(totals.token)
       val x = totals.x.map(t => step(sum(t.value, t.negative)))
       val y = totals.y.map(t => step(sum(t.value, t.negative)))
     }
@@ -389,26 +468,30 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
       (folded + U(up ^ s.negative).resize(offsetWidth)).asSInt
     }
     val rotated = new Area {
-      val valid = stepValid(sums.valid)
+      val token = stepToken(sums.token)
       val rx = sums.x.map(s => step(round(s)))
       // ry + 18, in [0, 36]
       val rowOffset = sums.y.map { s =>
         step((round(s).resize(offsetWidth + 1) + S(sampleReach, offsetWidth + 1 bits)).asUInt.resize(rowOffsetWidth))
       }
     }
-    /** A point on its way to the issue stage: its ring slot and column offset. */
+    /** A point on its way to the issue stage: its ring slot and column. */
     case class Located() extends Bundle {
       val slot = UInt(slotWidth bits)
-      val rx = SInt(offsetWidth bits)
+      val column = UInt(colWidth bits)
     }
+    // the patch's base slot and the corner's column, of the slot of the group the located stage loads
+    val rotatedTag = rotated.token.tag.getAheadValue()
+    val base = RegNext(pick(rotatedTag)(_.base))
+    val column = RegNext(pick(rotatedTag)(_.corner.corner.x))
     val located = new Area {
-      val valid = stepValid(rotated.valid)
+      val token = stepToken(rotated.token)
       val points = (0 until pointsPerGroup).map { i =>
         val o = Located()
         val near = base.resize(slotWidth + 2) + rotated.rowOffset(i).resize(slotWidth + 2)
         val wrapped = near.asSInt - S(rows, slotWidth + 2 bits)
         o.slot := Mux(wrapped.msb, near, wrapped.asUInt).resize(slotWidth)
-        o.rx := rotated.rx(i)
+        o.column := (column.intoSInt + rotated.rx(i)).asUInt.resize(colWidth)
         step(o)
       }
       val portB = (0 until pointsPerGroup).map(i => step(rotated.rowOffset(i) === 0 || rotated.rowOffset(i) === 2 * sampleReach))
@@ -420,7 +503,7 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
       planner.io.points(i).portB := located.portB(i)
     }
     val planned = new Area {
-      val valid = (0 until GroupPlanner.latency).foldLeft(located.valid)((v, _) => stepValid(v))
+      val token = (0 until GroupPlanner.latency).foldLeft(located.token)((v, _) => stepToken(v))
       val points = (0 until GroupPlanner.latency).foldLeft(Vec(located.points))((v, _) => step(v))
       val plan = planner.io.plan
       val single = plan.issues === 1
@@ -431,6 +514,8 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
       * its points come, and whether its first point was read a clock earlier (held). */
     case class Reads() extends Bundle {
       val valid = Bool()
+      /** the slot of the group */
+      val tag = Bool()
       val completes, held = Bits(testsPerGroup bits)
       val lane1, lane2 = Vec(UInt(GroupPlanner.laneWidth bits), testsPerGroup)
       /** a test's first point read alone (through the first B lane): keep it for the next clock */
@@ -442,22 +527,26 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
     case class LaneRead() extends Bundle {
       val valid = Bool()
       val slot = UInt(slotWidth bits)
-      val rx = SInt(offsetWidth bits)
+      val column = UInt(colWidth bits)
     }
     val issue = new Area {
-      val valid = RegNextWhen(planned.valid, advance) init False
+      val token = Reg(Token())
+      token.valid.init(False)
+      val loaded = Mux(advance, planned.token, token)
+      token := loaded
+      val valid = token.valid
       val points = step(planned.points)
       val plan = step(planned.plan)
       val clock = Reg(UInt(GroupPlanner.issueWidth bits)) init 0
       // The front end advances in the clock after a group's last: registered, from the group that comes next.
-      advance := Mux(advance, !planned.valid || planned.single, (clock +^ 2) === plan.issues)
+      advance := Mux(advance, !planned.token.valid || planned.single, (clock +^ 2) === plan.issues)
       when(advance) {
         clock := 0
       } otherwise {
         clock := clock + 1
       }
-      when(abandon) {
-        valid := False
+      when(abandons(loaded.tag)) {
+        token.valid := False
         advance := True
       }
       val now = (0 until pointsPerGroup).map(i => plan.issue(i) === clock)
@@ -466,11 +555,12 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
         val o = LaneRead()
         o.valid := hits.orR
         o.slot := hits.zip(points).map { case (hit, p) => Mux(hit, p.slot, U(0, slotWidth bits)) }.reduceBalancedTree(_ | _)
-        o.rx := hits.zip(points).map { case (hit, p) => Mux(hit, p.rx.asBits, B(0, offsetWidth bits)) }.reduceBalancedTree(_ | _).asSInt
+        o.column := hits.zip(points).map { case (hit, p) => Mux(hit, p.column, U(0, colWidth bits)) }.reduceBalancedTree(_ | _)
         o
       })
       val reads = Reads()
       reads.valid := valid
+      reads.tag := token.tag
       for (t <- 0 until testsPerGroup) {
         reads.completes(t) := valid && now(2 * t + 1)
         reads.held(t) := plan.issue(2 * t) =/= plan.issue(2 * t + 1)
@@ -497,7 +587,7 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
     def delayed(r: Reads): Reads = {
       val o = RegNext(r)
       o.valid.init(False)
-      when(abandon) {
+      when(abandons(r.tag)) {
         o.valid := False
       }
       o
@@ -510,10 +600,9 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
       // bank and column, once per lane
       val located = Vec(lanes.map { l =>
         val o = LaneAddress()
-        val column = (corner.corner.x.intoSInt + l.rx).asUInt.resize(colWidth)
         o.valid := l.valid
         o.bank := bankOf(l.slot)
-        o.address := (l.slot.lsb ## column).asUInt
+        o.address := (l.slot.lsb ## l.column).asUInt
         val r = RegNext(o)
         r.valid.init(False)
         r
@@ -571,9 +660,6 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
 
     // ---- compare and collect ----
     val collect = new Area {
-      val done = Reg(UInt(log2Up(groups + 1) bits)) init 0
-      /** done === groups - 1, a register beside the count */
-      val lastGroup = Reg(Bool()) init False
       val r = back.reads7
       val held = Reg(UInt(8 bits))
       when(r.valid && r.hold) {
@@ -586,21 +672,16 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
       val reads8 = delayed(r)
       val bits = Reg(Bits(testsPerGroup bits))
       val results = Vec((0 until testsPerGroup).map(t => Mux(reads8.completes(t), firsts(t) < seconds(t), bits(t))))
-      val descriptor = Reg(Bits(OrbDescriptorConfig.descriptorBits bits))
       when(reads8.valid) {
         bits := results.asBits
         when(reads8.last) {
-          descriptor := results.asBits ## descriptor(descriptor.high downto testsPerGroup)
-          done := done + 1
-          lastGroup := done === groups - 2
-          when(lastGroup) {
-            state := EngineState.FINISHED
+          for (s <- slots) {
+            when(reads8.tag === Bool(s.tag)) {
+              s.collected(results.asBits)
+            }
           }
         }
       }
-    }
-    when(abandon) {
-      state := EngineState.ABANDONED
     }
   }
 
@@ -621,23 +702,24 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
     engine.portBData(b) := RegNext(bRead)
   }
 
-  // The finished feature, or a frame's end.
-  val finished = engine.state === EngineState.FINISHED
+  // The oldest corner's finished feature, or a frame's end.
+  def oldest[T <: Data](field: EngineSlot => T): T = engine.pick(engine.outTag)(field)
+  val finished = oldest(_.state === EngineState.FINISHED)
   output.valid := finished || dispatch.marker
   output.frameEnd := !finished
   output.end := dispatch.c.end
-  output.x := engine.corner.corner.x
-  output.y := engine.corner.corner.y
-  output.bin := engine.corner.bin
-  output.score := engine.corner.corner.score
-  output.keyframe := Mux(finished, engine.corner.keyframe, dispatch.c.end.keyframe)
-  output.descriptor := engine.collect.descriptor
+  output.x := oldest(_.corner.corner.x)
+  output.y := oldest(_.corner.corner.y)
+  output.bin := oldest(_.corner.bin)
+  output.score := oldest(_.corner.corner.score)
+  output.keyframe := Mux(finished, oldest(_.corner.keyframe), dispatch.c.end.keyframe)
+  output.descriptor := oldest(_.descriptor)
   when(finished && output.ready) {
-    engine.release()
+    engine.handOn()
   }
-  val engineDrop = engine.state === EngineState.ABANDONED
+  val engineDrop = oldest(_.state === EngineState.ABANDONED)
   when(engineDrop) {
-    engine.release()
+    engine.handOn()
   }
   io.features << output.halfPipe()
 
@@ -648,14 +730,26 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
 }
 
 object DescriptorUnit {
-  /** Clocks from a corner's release (its row start), or from the engine handing its previous feature on, to the
-    * engine starting it, at most: the rows since and the row test are registered, and a row start in between costs
-    * one more. */
+  /** Clocks from a corner's release (its row start), or from the engine becoming free for it, to the engine
+    * starting it, at most: the rows since and the row test are registered, and a row start in between costs one
+    * more. */
   val dispatchClocks: Int = 5
 
-  /** Clocks from a corner's start to its finished descriptor beyond its read issues: the front end before the first
-    * issue, and the reads, the comparison and the collection after the last. */
-  val engineLatency: Int = 22
+  /** Clocks from a corner's start to its first read issue when no earlier group is ahead of it in the front end:
+    * the fetch and the front end's 13 registered stages. */
+  val frontLatency: Int = 14
+
+  /** Clocks from a corner's last read issue to its finished descriptor: the reads, the comparison and the
+    * collection. */
+  val backLatency: Int = 9
+
+  /** Clocks from a corner's start to its finished descriptor beyond its read issues, with no earlier group ahead of
+    * it in the front end. */
+  val engineLatency: Int = frontLatency + backLatency - 1
+
+  /** The most clocks the previous corner's groups still in the front end when a corner starts (at most
+    * `frontLatency` of them, the last) can delay its first issue: their clocks beyond one a group. */
+  def maxTailClocks(d: OrbDescriptorConfig): Int = DescriptorSchedule.maxTailExtraClocks(frontLatency, d)
 
   /** parts of the constant tables (the test pattern, cos and sin), each read with a small index into a register
     * before the part is picked */
@@ -664,9 +758,16 @@ object DescriptorUnit {
   /** copies of the front end's `advance`, each enabling a share of its registers */
   val advanceCopies: Int = 8
 
-  /** Clocks the engine takes for a corner of bin `bin` whose patch's oldest row is in ring slot `base`. */
+  /** Clocks the engine takes for a corner of bin `bin` whose patch's oldest row is in ring slot `base`, from its
+    * start to its finished descriptor, when no earlier group is ahead of it in the front end; up to
+    * `maxTailClocks` more when the previous corner's last groups are. */
   def clocks(bin: Int, base: Int, d: OrbDescriptorConfig): Int = engineLatency + DescriptorSchedule.issueClocks(bin, base, d)
 
-  /** The most clocks the engine takes for a descriptor, over all bins and ring positions. */
-  def maxClocks(d: OrbDescriptorConfig): Int = engineLatency + DescriptorSchedule.maxIssueClocks(d)
+  /** The most clocks from a corner's start to its finished descriptor, over all bins and ring positions. */
+  def maxClocks(d: OrbDescriptorConfig): Int = engineLatency + DescriptorSchedule.maxIssueClocks(d) + maxTailClocks(d)
+
+  /** The most clocks from a corner's start until the front end has fetched its last group (and can take the next
+    * corner): its last issue comes at most `frontLatency - 1 + maxTailClocks + issues` clocks after the start, and
+    * its last group was fetched at least `frontLatency - 1` clocks before (then seen a clock later). */
+  def fetchClocks(d: OrbDescriptorConfig): Int = DescriptorSchedule.maxIssueClocks(d) + maxTailClocks(d) + 1
 }

@@ -50,8 +50,8 @@ class BudgetModelSpec extends AnyFunSuite {
 
   test("the service bound holds for every line length of the default configuration, and fails where it should") {
     val steps = config.perCellSteps
-    // full density from lines of two cells on (a single engine serves 8 corners a band only from 354 px: 3 a cell in
-    // 279..353-px lines, see the README)
+    // full density from lines of two cells on (the engine serves 8 corners a band only from about 310 px: 3 a cell
+    // just above one cell's width, see sim/docs/feature-budget.md)
     assert(steps.last == (steps.last._1, b.perCell) && steps.last._1 <= 2 * config.harris.border + 2 * b.cellWidth)
     for (w <- steps.last._1 to config.maxWidth) assert(config.budgetService(w, b.perCell).isEmpty, s"W = $w")
     // what the bound guards against: more corners per cell than the engines can serve in 1024-px lines

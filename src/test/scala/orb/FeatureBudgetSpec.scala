@@ -21,8 +21,11 @@ class FeatureBudgetSpec extends AnyFunSuite {
     assert(rtl.deselected == model.deselected, s"$name: deselected corners (RTL ${rtl.deselected}, model ${model.deselected})")
     assert(rtl.featureDrops == 0 && model.featureDrops == 0, s"$name: ${rtl.featureDrops} selected corners got no feature")
     assert(rtl.features.size + rtl.deselected == rtl.corners.size, s"$name: every corner is a feature or deselected")
+    val off = engineOffSchedule(rtl)
+    assert(off.isEmpty, s"$name: the engine's clocks differ from its schedule: ${off.take(3).mkString("; ")}")
     println(f"[orb] $name%-30s ${frames.size} frames ${frames.head.width}x${frames.head.height}: ${rtl.corners.size} corners, " +
-      s"${rtl.deselected} deselected, ${rtl.features.size} features (${model.budget.map(_._2.selected.size).mkString(", ")} per frame), ${rtl.cycles} clocks")
+      s"${rtl.deselected} deselected, ${rtl.features.size} features (${model.budget.map(_._2.selected.size).mkString(", ")} per frame, " +
+      s"${rtl.engineRuns.count(_.overlapped)} started behind the one before), ${rtl.cycles} clocks")
     (model, rtl)
   }
 
@@ -52,8 +55,10 @@ class FeatureBudgetSpec extends AnyFunSuite {
   }
 
   test("a flood of corners in every line length, no blanking: every selected corner gets its feature") {
-    // 4-px checkerboard crossings with pure Harris maxima: a corner every 4 px in every 4th row.
-    for (w <- Seq(64, 100, 150, 300, 640)) {
+    // 4-px checkerboard crossings with pure Harris maxima: a corner every 4 px in every 4th row; at the narrowest
+    // line of every step of corners per cell (where the service bound is tightest), QVGA's and VGA's
+    val widths = (config.perCellSteps.map(_._1) ++ Seq(320, 640)).distinct.sorted
+    for (w <- widths) {
       val flood = Patterns.checkerboard(w, 96, 4)
       check(s"budget-flood-$w", Seq(flood, flood, flood), harrisOnly)
     }

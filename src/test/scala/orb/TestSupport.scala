@@ -24,6 +24,21 @@ object TestSupport {
     CoreSim.compile(config, workspace = "simWorkspace/test")
   }
 
+  /** The engine's runs that break what the budget's service bound counts on (`OrbConfig.windowClocks`): exactly the
+    * schedule's clocks when a corner started alone, at most the previous corner's tail more when it started behind
+    * it, its last group fetched within `issues + tail + 1` clocks. */
+  def engineOffSchedule(rtl: orb.testbench.RtlResult): Seq[String] = {
+    val d = config.descriptor
+    val tail = DescriptorUnit.maxTailClocks(d)
+    rtl.engineRuns.flatMap { r =>
+      val exact = DescriptorUnit.clocks(r.bin, r.base, d)
+      val fetchBy = orb.model.DescriptorSchedule.issueClocks(r.bin, r.base, d) + tail + 1
+      val clocksOk = if (r.overlapped) r.clocks >= exact && r.clocks <= exact + tail else r.clocks == exact
+      if (clocksOk && r.fetched >= 0 && r.fetched <= fetchBy) None
+      else Some(s"$r: schedule $exact (+ up to $tail behind another), fetched by $fetchBy")
+    }
+  }
+
   def dataFile(name: String): File = {
     val f = new File("data", name)
     require(f.isFile, s"missing test image ${f.getPath}: run the tests from the project root")

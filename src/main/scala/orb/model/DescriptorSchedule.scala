@@ -100,4 +100,14 @@ object DescriptorSchedule {
   /** The most clocks of reads any descriptor takes: over every bin and every ring position of its patch. */
   def maxIssueClocks(cfg: OrbDescriptorConfig): Int = maxCache.getOrElseUpdate(cfg,
     (0 until cfg.angleBins).map(bin => (0 until cfg.smoothedRows).map(issueClocks(bin, _, cfg)).max).max)
+
+  /** Clocks beyond one a group of a descriptor's last `n` groups take, together: the most the groups of one corner
+    * still in the engine's front end can hold up the next corner's first group. */
+  def tailExtraClocks(bin: Int, base: Int, n: Int, cfg: OrbDescriptorConfig): Int =
+    groupPoints(bin, base, cfg).takeRight(n).map(plan(_).issues - 1).sum
+
+  private val tailCache = scala.collection.concurrent.TrieMap[(OrbDescriptorConfig, Int), Int]()
+  /** The most of `tailExtraClocks` over every bin and ring position. */
+  def maxTailExtraClocks(n: Int, cfg: OrbDescriptorConfig): Int = tailCache.getOrElseUpdate((cfg, n),
+    (0 until cfg.angleBins).map(bin => (0 until cfg.smoothedRows).map(tailExtraClocks(bin, _, n, cfg)).max).max)
 }

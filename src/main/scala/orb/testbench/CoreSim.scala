@@ -23,8 +23,9 @@ object Blanking {
 }
 
 /** One descriptor of the engine: its bin, the ring slot of its patch's oldest row, clocks from its start to its
-  * finished descriptor (as `DescriptorUnit.clocks` says). */
-final case class EngineRun(bin: Int, base: Int, clocks: Int)
+  * finished descriptor (`DescriptorUnit.clocks`, more when `overlapped`) and until the front end had fetched its
+  * last group (`fetched`); `overlapped`: the corner before it was still being described when it started. */
+final case class EngineRun(bin: Int, base: Int, clocks: Int, fetched: Int, overlapped: Boolean)
 
 /** Output events of the core in the order it emits them (a corner before a frame end of the same clock). */
 sealed trait CoreEvent
@@ -62,9 +63,13 @@ object CoreSim {
       // the descriptor engine's start and finish, for `EngineRun`s
       val engine = core.descriptors.engine
       core.descriptors.dispatch.start.simPublic()
-      engine.state.simPublic()
-      engine.base.simPublic()
-      engine.corner.bin.simPublic()
+      engine.fetch.group.simPublic()
+      engine.fetch.tag.simPublic()
+      for (s <- engine.slots) {
+        s.state.simPublic()
+        s.base.simPublic()
+        s.corner.bin.simPublic()
+      }
       core
     }
 
@@ -103,15 +108,29 @@ object CoreSim {
     val cornerClocks = ArrayBuffer[Long]()
     val engineRuns = ArrayBuffer[EngineRun]()
     private val engine = dut.descriptors.engine
-    private var started = -1L
+    // per slot: the clock of its corner's start (-1: none), clocks to its fetch, whether it overlapped
+    private val started = Array(-1L, -1L)
+    private val fetched = Array(-1, -1)
+    private val overlapped = Array(false, false)
+    private val groups = orb.model.DescriptorSchedule.groups
     var cycles = 0L
     dut.clockDomain.onSamplings {
       cycles += 1
-      if (started >= 0 && engine.state.toEnum == EngineState.FINISHED) {
-        engineRuns += EngineRun(engine.corner.bin.toInt, engine.base.toInt, (cycles - started).toInt)
-        started = -1
+      for ((s, i) <- engine.slots.zipWithIndex) {
+        if (started(i) >= 0 && s.state.toEnum == EngineState.FINISHED) {
+          engineRuns += EngineRun(s.corner.bin.toInt, s.base.toInt, (cycles - started(i)).toInt, fetched(i), overlapped(i))
+          started(i) = -1
+        }
       }
-      if (dut.descriptors.dispatch.start.toBoolean) started = cycles
+      val fetching = if (engine.fetch.tag.toBoolean) 1 else 0
+      if (started(fetching) >= 0 && fetched(fetching) < 0 && engine.fetch.group.toInt == groups)
+        fetched(fetching) = (cycles - started(fetching)).toInt
+      if (dut.descriptors.dispatch.start.toBoolean) {
+        val next = 1 - fetching
+        started(next) = cycles
+        fetched(next) = -1
+        overlapped(next) = engine.slots(fetching).state.toEnum == EngineState.RUN
+      }
       if (dut.io.corners.valid.toBoolean) {
         events += CornerEvent(Corner(dut.io.corners.x.toInt, dut.io.corners.y.toInt, dut.io.corners.score.toLong))
         cornerClocks += cycles
