@@ -69,10 +69,18 @@ object Arith {
   final case class SplitTable(table: Seq[BigInt], width: Int, parts: Int) {
     require(isPow2(parts) && table.nonEmpty && table.forall(v => v >= 0 && v < (BigInt(1) << width)))
     val partSize: Int = 1 << log2Up((table.size + parts - 1) / parts)
-    def words(index: UInt): Vec[UInt] = Vec((0 until parts).map { q =>
+    /** part `q`'s word at `index` (its low bits) */
+    private def word(q: Int, index: UInt): UInt = {
       val entries = (0 until partSize).map(i => table.lift(q * partSize + i).getOrElse(BigInt(0)))
       Vec(entries.map(v => U(v, width bits)))(index.resize(log2Up(partSize)))
-    })
+    }
+    def words(index: UInt): Vec[UInt] = Vec((0 until parts).map(word(_, index)))
+    /** `words`, each part read with its own copy of the index (the copies kept apart: no one register drives
+      * every part) */
+    def wordsEach(indices: Seq[UInt]): Vec[UInt] = {
+      require(indices.size == parts)
+      Vec(indices.zipWithIndex.map { case (index, q) => word(q, index) })
+    }
     def part(index: UInt): UInt = {
       val low = log2Up(partSize)
       // a slice, not a shift: plain Verilog without width warnings

@@ -329,6 +329,8 @@ object MatcherConfig {
   /** clocks from the sweep's read of an entry to its correspondence's push into the output FIFO (the entry picked
     * from its lane into a register, then the push's register) */
   val pushLatency: Int = readLatency + 2
+  /** Parts of a lane's copy of the live descriptor, each loaded by its own copy of the idle flag. */
+  val liveDescriptorParts: Int = 8
   /** The popcount adds the counts of 8-bit chunks in a binary tree. */
   val chunkBits: Int = 8
   val treeLevels: Int = log2Up(OrbDescriptorConfig.descriptorBits / chunkBits)

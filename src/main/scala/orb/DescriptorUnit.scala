@@ -198,7 +198,9 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
     val late = since.asUInt >= d.slackRows
     val row = ring.history(since.asUInt.resize(log2Up(d.slackRows max 2)))
     val dataOk = row.active && row.frame === c.frameTag
-    val startNext = RegNext(due && !late && dataOk && engine.canBegin && !head.fire) init False
+    // the engine free for a corner, a clock late (never right after a start, which takes the slot)
+    val free = Reg(Bool()) init False
+    val startNext = RegNext(due && !late && dataOk && free && !head.fire) init False
     val refuseNext = RegNext(due && (late || !dataOk) && !head.fire) init False
     // the newest patch row (cy + 18) is in the slot of raw row cy + 21, `since + 1` rows back; the oldest 36 more
     val back = ring.slot.resize(slotWidth + 2).asSInt - since.resize(slotWidth + 2) - S(patchRows, slotWidth + 2 bits)
@@ -206,6 +208,7 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
     val leftWidth = log2Up(d.slackRows + 1)
     val rowsLeft = RegNext((S(d.slackRows, leftWidth + 1 bits) - since.resize(leftWidth + 1)).asUInt.resize(leftWidth))
     val start = startNext && !ring.rowStart
+    free := engine.canBegin && !start
     val refuse = refuseNext
     // A frame end leaves when every corner before it has: the engine idle.
     val marker = head.valid && c.frameEnd && engine.idle
@@ -229,8 +232,10 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
     val lastGroup = Reg(Bool()) init False
     val descriptor = Reg(Bits(OrbDescriptorConfig.descriptorBits bits))
     val running = state === EngineState.RUN
+    /** its patch's oldest row goes at the next row start: `rowsLeft === 1`, a register beside the count */
+    val onLastRow = RegNext(rowsLeft.getAheadValue() === 1) init False
     /** a row start overwrote the oldest row before the descriptor was complete */
-    val abandon = ring.rowStart && running && rowsLeft === 1
+    val abandon = ring.rowStart && running && onLastRow
 
     def begin(c: PreparedCorner, b: UInt, left: UInt): Unit = {
       state := EngineState.RUN
@@ -371,7 +376,13 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
       val token = stepToken(stepToken(stepToken(fetch.token)))
       val index = fetch.group.resize(log2Up(groups))
       val table = Arith.SplitTable(rom, pointsPerGroup * 2 * fieldWidth, DescriptorUnit.tableParts)
-      val words = step(table.words(index))
+      // a copy of the group count per part of the table (each loads what the count loads, kept apart)
+      val indexCopies = (0 until DescriptorUnit.tableParts).map { _ =>
+        val r = RegNext(fetch.group.getAheadValue()) init groups
+        r.addAttribute("preserve")
+        r.resize(log2Up(groups))
+      }
+      val words = Vec(table.wordsEach(indexCopies).map(step(_)))
       val part = step(table.part(index))
       val picked = step(table.pick(words, part).asBits)
       val bits = step(picked)
@@ -382,13 +393,25 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
       def y(i: Int): UInt = field(2 * i + 1).resize(patternWidth).asUInt
       def yNegative(i: Int): Bool = field(2 * i + 1).msb
     }
-    // the multipliers' other operands, in plain registers (no enable): the blocks' input registers, of the slot of
-    // the group the pattern stage loads
-    val patternTag = pattern.token.tag.getAheadValue()
-    val cosM = RegNext(pick(patternTag)(_.cos))
-    val sinM = RegNext(pick(patternTag)(_.sin))
-    val cosNegative = RegNext(pick(patternTag)(_.cosNegative))
-    val sinNegative = RegNext(pick(patternTag)(_.sinNegative))
+    /** A slot's rotation: cos and sin magnitudes and signs. */
+    case class Rotation() extends Bundle {
+      val cos, sin = UInt(magnitudeWidth bits)
+      val cosNegative, sinNegative = Bool()
+    }
+    // the rotation of the fetched group's slot, carried beside the pattern (the multipliers' other operands: the
+    // last step becomes their input registers)
+    val rotation = new Area {
+      val fetched = Rotation()
+      fetched.cos := pick(fetch.tag)(_.cos)
+      fetched.sin := pick(fetch.tag)(_.sin)
+      fetched.cosNegative := pick(fetch.tag)(_.cosNegative)
+      fetched.sinNegative := pick(fetch.tag)(_.sinNegative)
+      val value = step(step(step(fetched)))
+    }
+    val cosM = rotation.value.cos
+    val sinM = rotation.value.sin
+    val cosNegative = rotation.value.cosNegative
+    val sinNegative = rotation.value.sinNegative
     val productWidth = patternWidth + magnitudeWidth
     /** |x cos|, |y sin|, |x sin|, |y cos|; x' = x cos - y sin = sx (|x cos| -+ |y sin|) and y' = x sin + y cos =
       * sy (|x sin| +- |y cos|), with the signs of the terms */
@@ -480,10 +503,9 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
       val slot = UInt(slotWidth bits)
       val column = UInt(colWidth bits)
     }
-    // the patch's base slot and the corner's column, of the slot of the group the located stage loads
-    val rotatedTag = rotated.token.tag.getAheadValue()
-    val base = RegNext(pick(rotatedTag)(_.base))
-    val column = RegNext(pick(rotatedTag)(_.corner.corner.x))
+    // the patch's base slot and the corner's column, of the slot of the rotated group
+    val base = pick(rotated.token.tag)(_.base)
+    val column = pick(rotated.token.tag)(_.corner.corner.x)
     val located = new Area {
       val token = stepToken(rotated.token)
       val points = (0 until pointsPerGroup).map { i =>
@@ -731,8 +753,8 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
 
 object DescriptorUnit {
   /** Clocks from a corner's release (its row start), or from the engine becoming free for it, to the engine
-    * starting it, at most: the rows since and the row test are registered, and a row start in between costs one
-    * more. */
+    * starting it, at most: the rows since, the row test and the engine's freedom are registered, and a row start in
+    * between costs two more. */
   val dispatchClocks: Int = 5
 
   /** Clocks from a corner's start to its first read issue when no earlier group is ahead of it in the front end:

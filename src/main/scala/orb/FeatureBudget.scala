@@ -102,13 +102,19 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
       val bank = RegNext(fetched.bank)
       val cellIndex = RegNext(fetched.cellIndex)
       val list = Reg(Vec.fill(k)(Entry()))
+      // the corner's score, one copy per list place (kept apart): each feeds one comparison
+      val scores = (0 until k).map { _ =>
+        val r = RegNext(fetched.c.score)
+        r.addAttribute("preserve")
+        r
+      }
     }
     val compare = new Area {
       val c = read.c.stage()
       val bank = RegNext(read.bank)
       val cellIndex = RegNext(read.cellIndex)
       val list = RegNext(read.list)
-      val ahead = Vec((0 until k).map(i => RegNext(read.list(i).valid && read.list(i).score >= read.c.score && inList(i))))
+      val ahead = Vec((0 until k).map(i => RegNext(read.list(i).valid && read.list(i).score >= read.scores(i) && inList(i))))
       val full = RegNext((0 until k).map(i => !inList(i) || read.list(i).valid).andR)
     }
     val c = compare.c
@@ -198,11 +204,14 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
       val place = Bits(cells * k bits)
     }
     def earlier(l: Candidate, r: Candidate): Candidate = Mux(l.valid && (!r.valid || l.key <= r.key), l, r)
-    /** the first of `cs`, a register after every level of comparisons */
-    def firstOf(cs: Seq[Candidate]): Candidate =
-      if (cs.size == 1) cs.head else firstOf(cs.grouped(2).map(p => RegNext(p.reduce(earlier))).toSeq)
-    // the entries of the emitted bank registered first (the bank chosen), then the comparisons
-    val candidates = lists.zipWithIndex.map { case (list, cell) =>
+    /** the first of `cs` (two or more) by levels of comparisons, a register after each: the last level's input */
+    def lastLevelOf(cs: Seq[Candidate]): Candidate = {
+      val pairs = cs.grouped(2).map(_.reduce(earlier)).toSeq
+      if (pairs.size == 1) pairs.head else lastLevelOf(pairs.map(RegNext(_)))
+    }
+    // the entries of the emitted bank registered first (the bank chosen), then the comparisons (keys are distinct,
+    // so pairing entries cell by cell or across cells gives the same first)
+    val candidates = lists.zipWithIndex.flatMap { case (list, cell) =>
       list.zipWithIndex.map { case (e, i) =>
         val cand = Candidate()
         cand.valid := e.valid
@@ -211,10 +220,21 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
         RegNext(cand)
       }
     }
-    val first = firstOf(candidates.map(c => firstOf(c.toSeq)).toSeq)
+    require(candidates.size >= 2, "a band holds at least two entries")
+    val choice = lastLevelOf(candidates.toSeq)
+    val first = RegNext(choice)
+    // the winner's place in each cell, one copy per bank and cell (kept apart): each picks its cell's score and
+    // empties its cell's entry
+    val places = (0 until 2).map { _ =>
+      (0 until cells).map { cell =>
+        val r = RegNext(choice.place(cell * k, k bits))
+        r.addAttribute("preserve")
+        r
+      }
+    }
     // the choice's register levels, then the score picked by its place into a register: the winner leaves after
     // them (its entry emptied then, a clock before the next round's entries are registered)
-    val steps = 1 + log2Up(k) + log2Up(cells) + 2
+    val steps = 1 + log2Up(candidates.size) + 2
     require(steps + 1 <= FeatureBudget.winnerClocks, "a winner leaves in its pace, its score picked a clock before")
     val out = Flow(CornerHw(f, h))
     val now = busy && pace === steps && !choosing
@@ -224,9 +244,9 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
     // the score is not carried through the choice (narrower selections): picked by the winner's place into a
     // register in the clock before it leaves
     // (in two registered steps: each cell's, then the cell's, in each bank; the bank chosen after them)
-    val cellScores = banks.map(bk => bk.zipWithIndex.map { case (list, cell) =>
-      RegNext(MuxOH.or(first.place(cell * k, k bits), list.map(_.score).toSeq))
-    })
+    val cellScores = banks.zip(places).map { case (bk, bankPlaces) =>
+      bk.zip(bankPlaces).map { case (list, place) => RegNext(MuxOH.or(place: Bits, list.map(_.score).toSeq)) }
+    }
     val scores = cellScores.map(cs => RegNext(cs.reduce(_ | _)))
     out.score := Mux(bank === 1, scores(1), scores(0))
     when(busy) {
@@ -235,8 +255,10 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
     when(trigger || choosing) { pace := 0 }
     when(now) {
       when(first.valid) {
-        for (bk <- 0 until 2; (e, place) <- banks(bk).flatMap(_.toSeq).zipWithIndex) {
-          when(bank === bk && first.place(place)) { e.valid := False }
+        for (bk <- 0 until 2; cell <- 0 until cells; i <- 0 until k) {
+          when(bank === bk && places(bk)(cell)(i)) {
+            banks(bk)(cell)(i).valid := False
+          }
         }
       } otherwise {
         busy := False
@@ -254,7 +276,9 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
   }
 
   // Winners per score level, in a RAM (one word per level): a winner's count is read, a register on both sides,
-  // and written back incremented; the frame's end reads every level from the top and writes it back as 0.
+  // and written back incremented through a register (a clock later: winners are `FeatureBudget.winnerClocks` apart,
+  // and the frame end's walk starts after the last write); the frame's end reads every level from the top and
+  // writes it back as 0.
   val histogram = new Area {
     val ram = Mem(UInt(countWidth bits), levels) // emptied by the walk after reset (no initial contents needed)
     val readAddress = UInt(levelWidth bits)
@@ -263,7 +287,7 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
     val write = Bool()
     val writeAddress = UInt(levelWidth bits)
     val writeData = UInt(countWidth bits)
-    ram.write(writeAddress, writeData, write)
+    ram.write(RegNext(writeAddress), RegNext(writeData), RegNext(write) init False)
   }
 
   /** The leading one's position of a score (`BudgetModel.level`, first step). */
@@ -337,8 +361,11 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
       pendingOk := (pending && pendingOk) || io.frameEnds.ok
     }
     // nothing in flight: no corner on its way into a list, no band being emitted, no winner's count unwritten
-    // (a corner at the input is none of its frame's: it comes at least 22 rows into the next frame)
-    val quiet = !intake.busy && !emission.busy && !emission.trigger && !decide.inFlight
+    // (a corner at the input is none of its frame's: it comes at least 22 rows into the next frame); decided a
+    // clock ahead into a register, from this clock's state and what enters in the next (a corner at the input, a
+    // band's trigger), so the frame end's clearing of every list hangs on one register
+    val quiet = RegNext(!intake.busy && !io.corners.valid && !emission.busy && !emission.trigger &&
+      !emission.trigger.getAheadValue() && !decide.inFlight) init False
     val fire = pending && quiet
     when(fire) { pending := False }
     // after reset the histogram RAM may hold a cut-off frame's counts: the walk empties it first
@@ -347,12 +374,12 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
     val issue = Reg(UInt(levelWidth bits)) init levels - 1
     val need = Reg(UInt(BudgetConfig.targetWidth + 1 bits)) init 0
     val found = Reg(Bool()) init False
-    // the winners left in the banks when the frame end fires, counted in two registered steps (a list's count,
-    // then their sum) and so reported two clocks later
-    val listCounts = RegNext(Vec(banks.flatMap(bank => bank.map(list => CountOne(list.map(_.valid).toSeq)))))
-    val fired = RegNext(fire) init False
-    val leftover = listCounts.map(_.resize(f.counterWidth)).reduceBalancedTree(_ + _)
-    val dropped = RegNext(fired ? leftover | U(0, f.counterWidth bits)) init 0
+    // the winners left in the banks when the frame end fires, counted in three registered steps (a list's count,
+    // a bank's, their sum) and so reported three clocks later
+    val listCounts = RegNext(Vec(banks.map(bank => Vec(bank.map(list => CountOne(list.map(_.valid).toSeq))))))
+    val bankCounts = RegNext(Vec(listCounts.map(_.map(_.resize(f.counterWidth)).reduceBalancedTree(_ + _))))
+    val fired = Delay(fire, 2, init = False)
+    val dropped = RegNext(fired ? bankCounts.reduceBalancedTree(_ + _) | U(0, f.counterWidth bits)) init 0
     when(fire) {
       for (bank <- banks; cell <- bank; e <- cell) e.valid := False
       phase := Phase.scan

@@ -298,15 +298,20 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
     }
     val results = for ((r, l) <- reads.zipWithIndex) yield new Area {
       // the lane's own copy of the live descriptor (kept apart, beside the lane's RAMs: one copy would drive all
-      // four lanes' comparisons across the chip), copied while the scan is idle as `scan.live` is, by an enable
-      // from the lane's own copy of the idle flag
-      val idle = RegNext(activity.getAheadValue() =/= Activity.SCAN) init True
-      idle.addAttribute("preserve")
-      val liveDescriptor = Reg(cloneOf(item.descriptor))
-      liveDescriptor.addAttribute("preserve")
-      when(idle) {
-        liveDescriptor := item.descriptor
+      // four lanes' comparisons across the chip), copied while the scan is idle as `scan.live` is, in parts, each
+      // by an enable from its own copy of the idle flag (no one flag drives every bit)
+      val partBits = item.descriptor.getWidth / MatcherConfig.liveDescriptorParts
+      val liveParts = (0 until MatcherConfig.liveDescriptorParts).map { i =>
+        val idle = RegNext(activity.getAheadValue() =/= Activity.SCAN) init True
+        idle.addAttribute("preserve")
+        val part = Reg(Bits(partBits bits))
+        part.addAttribute("preserve")
+        when(idle) {
+          part := item.descriptor(i * partBits, partBits bits)
+        }
+        part
       }
+      val liveDescriptor = Cat(liveParts)
       val count = MatcherConfig.popCount(r.entry.descriptor ^ liveDescriptor, m.popcountLevelsPerStage)
       val old = Delay(r.cross, popStages)
       val index = (group.resize(countWidth) |<< log2Up(P)) | U(l, countWidth bits)
