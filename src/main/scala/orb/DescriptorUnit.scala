@@ -120,8 +120,8 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
     /** the row whose start means the corner's 37 smoothed rows are complete: its own row + `startRowOffset` */
     val startRow = f.rowTag()
     val frameTag = f.frameTag()
-    val keyframe, frameEnd = Bool()
-    val end = FrameEndInfo()
+    val keyframe = Bool()
+    val end = FrameEndMark()
   }
   /** ... with the bin's cos and sin (magnitude and sign), looked up while it waits */
   case class PreparedCorner() extends Bundle {
@@ -192,7 +192,7 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
     // rows since the patch was complete (negative: not yet), for the head of the clock before: it is the head's
     // now unless the head left then or a row started since
     val since = RegNext((ring.clock.row - c.startRow).asSInt)
-    val computed = RegNext(head.valid && !c.frameEnd && !head.fire) init False
+    val computed = RegNext(head.valid && !c.end.now && !head.fire) init False
     val current = computed && !ring.rowStart
     val due = current && !since.msb
     val late = since.asUInt >= d.slackRows
@@ -211,7 +211,7 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
     free := engine.canBegin && !start
     val refuse = refuseNext
     // A frame end leaves when every corner before it has: the engine idle.
-    val marker = head.valid && c.frameEnd && engine.idle
+    val marker = head.valid && c.end.now && engine.idle
     head.ready := start || refuse || (marker && output.ready)
     when(start) {
       engine.begin(head.payload, base, rowsLeft)
@@ -728,13 +728,13 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
   def oldest[T <: Data](field: EngineSlot => T): T = engine.pick(engine.outTag)(field)
   val finished = oldest(_.state === EngineState.FINISHED)
   output.valid := finished || dispatch.marker
-  output.frameEnd := !finished
-  output.end := dispatch.c.end
+  output.end.now := !finished
+  output.end.info := dispatch.c.end.info
   output.x := oldest(_.corner.corner.x)
   output.y := oldest(_.corner.corner.y)
   output.bin := oldest(_.corner.bin)
   output.score := oldest(_.corner.corner.score)
-  output.keyframe := Mux(finished, oldest(_.corner.keyframe), dispatch.c.end.keyframe)
+  output.keyframe := Mux(finished, oldest(_.corner.keyframe), dispatch.c.end.info.keyframe)
   output.descriptor := oldest(_.descriptor)
   when(finished && output.ready) {
     engine.handOn()
@@ -746,7 +746,7 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
   io.features << output.halfPipe()
 
   val drops = Reg(f.counter()) init 0
-  drops := drops + U(queueDrop).resize(f.counterWidth) + U(dispatch.refuse && !dispatch.c.frameEnd).resize(f.counterWidth) +
+  drops := drops + U(queueDrop).resize(f.counterWidth) + U(dispatch.refuse && !dispatch.c.end.now).resize(f.counterWidth) +
     U(engineDrop).resize(f.counterWidth)
   io.dropped := drops
 }

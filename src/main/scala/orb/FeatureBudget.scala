@@ -27,7 +27,7 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
   val io = new Bundle {
     val pixels = slave Flow (TrackedPixel(f))
     val corners = slave Flow (CornerHw(f, h))
-    val frameEnds = slave Flow (FrameEndInfo())
+    val frameEnds = slave Flow (FrameEndHw())
     val geometry = in(FrameGeometry(f))
     val target = in UInt (BudgetConfig.targetWidth bits)
     val selected = master Flow (CornerHw(f, h))

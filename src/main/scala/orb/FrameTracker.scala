@@ -216,9 +216,9 @@ class FrameTracker(c: FrameConfig) extends Component {
   t.y := RegNext(cur.yNow)
   t.active := RegNext(cur.activeNow && !check.fault) init False
   t.keyframe := RegNext(cur.keyNow)
-  t.ends := RegNext(fire && (close.endsFrame || (cur.inFrameNow && (check.endsFrame || check.complete)))) init False
-  t.end.ok := RegNext(check.complete && !close.endsFrame)
-  t.end.keyframe := RegNext(Mux(close.endsFrame, key, cur.keyNow))
+  t.end.now := RegNext(fire && (close.endsFrame || (cur.inFrameNow && (check.endsFrame || check.complete)))) init False
+  t.end.info.ok := RegNext(check.complete && !close.endsFrame)
+  t.end.info.keyframe := RegNext(Mux(close.endsFrame, key, cur.keyNow))
   io.geometry.width := expW
   io.geometry.height := expH
   io.counters.frames := frames

@@ -44,7 +44,7 @@ class HarrisDetector(f: FrameConfig, h: HarrisConfig, columnRows: Int, stages: H
     val geometry = in(FrameGeometry(f))
     val control = in(CornerParamsHw())
     val corners = master Flow (CornerHw(f, h))
-    val frameEnds = master Flow (FrameEndInfo())
+    val frameEnds = master Flow (FrameEndHw())
     val cornerCount = out(f.counter())
   }
   val reach = HarrisConfig.reach
@@ -213,8 +213,8 @@ class HarrisDetector(f: FrameConfig, h: HarrisConfig, columnRows: Int, stages: H
     io.corners.x := outputNode(suppress.CX)
     io.corners.y := outputNode(suppress.CY)
     io.corners.score := outputNode(suppress.CENTRE)
-    io.frameEnds.valid := isValid && outputNode(PIXEL).ends
-    io.frameEnds.payload := outputNode(PIXEL).end
+    io.frameEnds.valid := isValid && outputNode(PIXEL).end.now
+    io.frameEnds.payload := outputNode(PIXEL).end.info
     val count = Reg(f.counter()) init 0
     when(io.corners.valid) { count := count + 1 }
     io.cornerCount := count

@@ -60,7 +60,7 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
   // per two clocks, where features come at most one per descriptor): the load and the scan decide on local
   // copies, and the copy is enabled by a register, not by the handshake.
   val item = io.features.halfPipe()
-  val isKey = Mux(item.frameEnd, item.end.keyframe, item.keyframe)
+  val isKey = item.keyframe
 
   // Frame state: the first item of a frame samples the parameters and, on a keyframe, empties the store.
   val frame = new Area {
@@ -73,7 +73,7 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
     params.crossCheck init Bool(m.defaultCrossCheck)
     val keyNow = Mux(first, isKey, key)
     when(item.fire) {
-      first := item.frameEnd
+      first := item.end.now
       when(first) { key := isKey; params := io.params }
     }
   }
@@ -107,7 +107,7 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
   // the weakest replaces it, after which a rescan of the scores finds the new weakest. Every feature beyond the
   // capacity, kept or not, costs one: counted as overflow.
   val load = new Area {
-    val keyFeature = item.fire && frame.keyNow && !item.frameEnd
+    val keyFeature = item.fire && frame.keyNow && !item.end.now
     val room = storedNow < m.storeCapacity
     val replace = !room && item.score > weakest.score
     val write = keyFeature && (room || replace)
@@ -151,7 +151,7 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
       issuing := !lastGroup
       lastGroup := group + 2 === groups
     }
-    val start = item.fire && !frame.keyNow && !item.frameEnd
+    val start = item.fire && !frame.keyNow && !item.end.now
     when(start) {
       activity := Activity.SCAN
       group := 0
@@ -205,7 +205,7 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
     when(busy && !more) {
       activity := Activity.IDLE
     }
-    when(item.fire && item.frameEnd && !frame.keyNow) {
+    when(item.fire && item.end.now && !frame.keyNow) {
       activity := Activity.SWEEP
       entry := 0
       more := stored =/= 0
@@ -227,7 +227,7 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
     when(busy && group === m.groups - 1) {
       activity := Activity.IDLE
     }
-    when(item.fire && item.frameEnd && frame.keyNow) {
+    when(item.fire && item.end.now && frame.keyNow) {
       activity := Activity.KEY_END
       group := 0
     }

@@ -21,7 +21,7 @@ class OrbCore(val cfg: OrbConfig = OrbConfig.default) extends Component {
     val cornerControl = in(CornerParamsHw())
     val corners = master Flow (CornerHw(cfg.frame, cfg.harris))
     val features = master Stream (FeatureHw(cfg.frame, cfg.harris, cfg.descriptor))
-    val frameEnds = master Flow (FrameEndInfo())
+    val frameEnds = master Flow (FrameEndHw())
     val status = out(CoreStatus(cfg.frame))
   }
   val tracker = new FrameTracker(cfg.frame)
@@ -46,7 +46,7 @@ class OrbCore(val cfg: OrbConfig = OrbConfig.default) extends Component {
   descriptors.io.corners << orientation.io.oriented
   io.features << descriptors.io.features
   val featureCount = Reg(cfg.frame.counter()) init 0
-  when(io.features.fire && !io.features.frameEnd) { featureCount := featureCount + 1 }
+  when(io.features.fire && !io.features.end.now) { featureCount := featureCount + 1 }
   io.status.features := featureCount
   io.status.featureDrops := budget.io.dropped + orientation.io.dropped + descriptors.io.dropped
   io.status.deselected := budget.io.deselected

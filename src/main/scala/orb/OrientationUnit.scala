@@ -64,7 +64,6 @@ class OrientationUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, c
     val y = pixel.y
     val active = pixel.active
     val keyframe = pixel.keyframe
-    val ends = pixel.ends
     val end = pixel.end
     // compared at the input and delayed with the beat: a register, not a comparison, where it is used
     val frameStart = Delay(io.columns.valid && io.columns.pixel.x === 0 && io.columns.pixel.y === 0, latency, init = False)
@@ -77,8 +76,8 @@ class OrientationUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, c
     val TV = RegNext(sums.TV)
     val valid = RegNext(sums.valid) init False
     val keyframe = RegNext(sums.keyframe)
-    val ends = RegNext(sums.ends) init False
     val end = RegNext(sums.end)
+    end.now.init(False)
     val rowNow = RegNext(sums.clock.rowNext)
     val frameNow = RegNext(sums.clock.frameNext)
   }
@@ -181,12 +180,14 @@ class OrientationUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, c
     val rowTag = RegNext(beat.rowNow - R)
     val frameTag = RegNext(beat.frameNow)
     val keyframe = RegNext(beat.keyframe)
-    val ends = RegNext(beat.valid && beat.ends) init False
-    val end = RegNext(beat.end)
+    val end = Reg(FrameEndMark())
+    end.now.init(False)
+    end.now := beat.valid && beat.end.now
+    end.info := beat.end.info
   }
   // A frame's end follows its corners: no corner of a good frame finishes on its last pixel (the last corners finish
   // 7 rows earlier), and on a fault no corner finishes (it would be dropped).
-  finishing.valid := emit || beatD.ends
+  finishing.valid := emit || beatD.end.now
   val o = finishing.oriented
   o.corner := finishedCorner
   o.m01 := chains.tv(0).resize(momentWidth)
@@ -195,7 +196,6 @@ class OrientationUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, c
   o.rowTag := beatD.rowTag
   o.frameTag := beatD.frameTag
   o.keyframe := beatD.keyframe
-  o.frameEnd := beatD.ends
   o.end := beatD.end
   finishing.t := chains.t(0).resize(acc1Width)
   finishing.ts := chains.ts(0).resize(acc2Width)

@@ -24,9 +24,9 @@ case class TrackedPixel(c: FrameConfig) extends Bundle {
   val active = Bool()
   /** the keyframe flag of this pixel's frame (sampled at its start of frame) */
   val keyframe = Bool()
-  /** this beat closes the last processed frame (one beat per processed frame), described by `end` */
-  val ends = Bool()
-  val end = FrameEndInfo()
+  /** the beat that closes the last processed frame (one beat per processed frame; its `keyframe` may already be the
+    * next frame's) */
+  val end = FrameEndMark()
 }
 
 case class LineColumn(f: FrameConfig, rows: Int) extends Bundle {
@@ -57,23 +57,21 @@ case class OrientedCorner(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfi
   val frameTag = f.frameTag()
   /** the corner's frame is a keyframe */
   val keyframe = Bool()
-  /** not a corner: the end of a processed frame, after all of its corners (`end` says how it ended) */
-  val frameEnd = Bool()
-  val end = FrameEndInfo()
+  /** not a corner: the end of a processed frame, after all of its corners */
+  val end = FrameEndMark()
 }
 
-/** A finished ORB feature. `descriptor(i)` is test i: byte i/8, bit i%8 of OpenCV's descriptor. With `frameEnd`
+/** A finished ORB feature. `descriptor(i)` is test i: byte i/8, bit i%8 of OpenCV's descriptor. With `end.now`
   * set, the item is no feature but the end of a processed frame, after all of that frame's features. */
 case class FeatureHw(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) extends Bundle {
   val x, y = f.coord()
   val bin = UInt(d.binWidth bits)
   val score = UInt(h.scoreWidth bits)
   val descriptor = Bits(OrbDescriptorConfig.descriptorBits bits)
-  /** the feature's frame is a keyframe */
+  /** the feature's frame is a keyframe (for a frame's end: that frame's, as `end.info.keyframe`) */
   val keyframe = Bool()
-  /** not a feature: the end of a processed frame, after all of its features (`end` says how it ended) */
-  val frameEnd = Bool()
-  val end = FrameEndInfo()
+  /** not a feature: the end of a processed frame, after all of its features */
+  val end = FrameEndMark()
 }
 
 /** A correspondence: a live feature at (liveX, liveY) matched to the keyframe feature at (keyX, keyY). */
@@ -84,12 +82,19 @@ case class CorrespondenceHw(f: FrameConfig) extends Bundle {
 
 // ---- status and control ----
 
-/** How a processed frame ended. */
-case class FrameEndInfo() extends Bundle {
+/** How a processed frame ended (`orb.model.FrameEnd`): the payload of a stream of frame ends. */
+case class FrameEndHw() extends Bundle {
   /** the frame completed without a fault */
   val ok = Bool()
   /** the keyframe flag sampled at that frame's start */
   val keyframe = Bool()
+}
+
+/** A frame end inside a stream of other items (pixels, corners, features), the one marker they all carry: `now` on
+  * the item that ends a processed frame, `info` how that frame ended (`Option[FrameEnd]` in the model). */
+case class FrameEndMark() extends Bundle {
+  val now = Bool()
+  val info = FrameEndHw()
 }
 
 case class FrameGeometry(c: FrameConfig) extends Bundle {

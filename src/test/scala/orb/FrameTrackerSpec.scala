@@ -54,17 +54,18 @@ class FrameTrackerSpec extends AnyFunSuite {
         orb.testbench.CoreSim.startClock(dut.clockDomain)
         dut.clockDomain.onSamplings {
           val t = dut.io.tracked
-          if (t.valid.toBoolean) got += TrackedBeat(t.luma.toInt, t.x.toInt, t.y.toInt, t.active.toBoolean, t.ends.toBoolean,
-            t.ends.toBoolean && t.end.ok.toBoolean, if (t.ends.toBoolean) t.end.keyframe.toBoolean else false)
+          if (t.valid.toBoolean) {
+            val end = if (t.end.now.toBoolean) Some(FrameEnd(t.end.info.ok.toBoolean, t.end.info.keyframe.toBoolean)) else None
+            got += TrackedBeat(t.luma.toInt, t.x.toInt, t.y.toInt, t.active.toBoolean, end)
+          }
         }
         orb.testbench.CoreSim.drivePixels(dut.io.pixels, dut.clockDomain, beats, orb.testbench.Blanking.random, r)
         dut.clockDomain.waitSampling(3)
         counters = FrameCounters(dut.io.counters.frames.toLong, dut.io.counters.badFrames.toLong, dut.io.counters.badLines.toLong)
       }
-      val norm = expected.map(t => t.copy(frameOk = t.frameEnd && t.frameOk, frameKey = t.frameEnd && t.frameKey))
-      orb.testbench.Scoreboard.describe(s"run $run", "tracked beats", norm, got.toSeq).foreach(msg => fail(msg))
+      orb.testbench.Scoreboard.describe(s"run $run", "tracked beats", expected, got.toSeq).foreach(msg => fail(msg))
       assert(counters == model.stats, s"run $run: counters")
-      val processed = norm.count(_.frameEnd)
+      val processed = expected.count(_.end.isDefined)
       println(s"[orb] tracker run $run: ${beats.size} beats, ${model.stats}, $processed processed frames ended")
       assert(processed > 10 && model.stats.badFrames > 10, "the stream should mix good and faulty frames")
     }

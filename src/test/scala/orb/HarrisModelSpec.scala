@@ -94,7 +94,7 @@ class HarrisModelSpec extends AnyFunSuite {
     assert(first.size == 120 && first.forall(!_.active))
     val second = Beat.frame(img).flatMap(t.step)
     assert(second.forall(_.active) && second.map(b => (b.x, b.y)) == (for (y <- 0 until 6; x <- 0 until 20) yield (x, y)))
-    assert(second.count(_.frameEnd) == 1 && second.last.frameEnd && second.last.frameOk)
+    assert(second.count(_.end.isDefined) == 1 && second.last.end.exists(_.ok))
     assert(t.stats == FrameCounters(frames = 2))
   }
 }

@@ -33,7 +33,7 @@ class MatcherSpec extends AnyFunSuite {
       val r0 = rng(name)
       val in = dut.io.features
       in.valid #= false; in.x #= 0; in.y #= 0; in.bin #= 0; in.score #= 0; in.descriptor #= 0
-      in.keyframe #= false; in.frameEnd #= false; in.end.ok #= true; in.end.keyframe #= false
+      in.keyframe #= false; in.end.now #= false; in.end.info.ok #= true; in.end.info.keyframe #= false
       dut.io.params.hammingThreshold #= p.hammingThreshold
       dut.io.params.ratio #= p.ratio.getOrElse(0).toLong
       dut.io.params.ratioTest #= p.ratio.isDefined
@@ -55,11 +55,11 @@ class MatcherSpec extends AnyFunSuite {
         in.valid #= true
         item match {
           case Right(ft) =>
-            in.frameEnd #= false; in.x #= ft.x; in.y #= ft.y; in.bin #= ft.bin; in.score #= ft.score
+            in.end.now #= false; in.x #= ft.x; in.y #= ft.y; in.bin #= ft.bin; in.score #= ft.score
             in.descriptor #= ft.descriptorBits
             in.keyframe #= keyFlags(i)
           case Left(e) =>
-            in.frameEnd #= true; in.end.ok #= e.ok; in.end.keyframe #= e.keyframe; in.keyframe #= e.keyframe
+            in.end.now #= true; in.end.info.ok #= e.ok; in.end.info.keyframe #= e.keyframe; in.keyframe #= e.keyframe
             if (stallFor > 0 && stallLeft < 0) stallLeft = stallFor
         }
         dut.clockDomain.waitSamplingWhere(in.ready.toBoolean)

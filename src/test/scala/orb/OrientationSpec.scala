@@ -88,7 +88,7 @@ class OrientationSpec extends AnyFunSuite {
       CoreSim.startClock(dut.clockDomain)
       dut.clockDomain.onSamplings {
         val o = dut.oriented
-        if (o.valid.toBoolean && !o.frameEnd.toBoolean) got += ((o.corner.x.toInt, o.corner.y.toInt, o.corner.score.toLong, o.m10.toLong, o.m01.toLong, o.bin.toInt))
+        if (o.valid.toBoolean && !o.end.now.toBoolean) got += ((o.corner.x.toInt, o.corner.y.toInt, o.corner.score.toLong, o.m10.toLong, o.m01.toLong, o.bin.toInt))
       }
       CoreSim.drivePixels(dut.pixels, dut.clockDomain, Beat.frame(img) ++ Beat.frame(img), blanking, rng(name))
       dut.clockDomain.waitSampling(50)

@@ -77,8 +77,7 @@ object CoreModel {
         if (t.active) {
           pixels(t.y * w + t.x) = t.luma; beatIndex(t.y * w + t.x) = i; activeCount += 1
         }
-        if (t.frameEnd) {
-          val e = FrameEnd(t.frameOk, t.frameKey)
+        for (e <- t.end) {
           ends += i -> e
           // On a start of frame the end belongs to the frame just flushed; otherwise to the current one.
           if (b.sof) featureStream += Left(e) else pendingEnd = Some(e)

@@ -2,11 +2,10 @@ package orb.model
 
 import orb.FrameConfig
 
-/** What the frame tracker says about one beat (mirrors `orb.TrackedPixel`). `frameEnd` closes the last frame that
+/** What the frame tracker says about one beat (mirrors `orb.TrackedPixel`). `end` closes the last frame that
   * was processed: on its last pixel (ok) or on the beat where a fault showed (not ok; for a frame cut short that
   * beat is the next start of frame). */
-final case class TrackedBeat(luma: Int, x: Int, y: Int, active: Boolean,
-                             frameEnd: Boolean, frameOk: Boolean, frameKey: Boolean)
+final case class TrackedBeat(luma: Int, x: Int, y: Int, active: Boolean, end: Option[FrameEnd])
 
 final case class FrameCounters(frames: Long = 0, badFrames: Long = 0, badLines: Long = 0)
 
@@ -63,7 +62,7 @@ final class FrameTrackerModel(cfg: FrameConfig) {
     val beatActive = active && !fault
     val complete = processed && !bad && !fault && b.eol && y == expH - 1
     if (complete) { frameEnd = true; frameOk = true; frameKey = key }
-    val out = TrackedBeat(b.luma, x, y, beatActive, frameEnd, frameOk, frameKey)
+    val out = TrackedBeat(b.luma, x, y, beatActive, if (frameEnd) Some(FrameEnd(frameOk, frameKey)) else None)
 
     if (fault) { bad = true; active = false }
     if (complete) { done = true; active = false }

@@ -137,7 +137,7 @@ object CoreSim {
       }
       val f = dut.io.features
       if (f.valid.toBoolean && f.ready.toBoolean) {
-        if (f.frameEnd.toBoolean) featureStream += Left(FrameEnd(f.end.ok.toBoolean, f.end.keyframe.toBoolean))
+        if (f.end.now.toBoolean) featureStream += Left(FrameEnd(f.end.info.ok.toBoolean, f.end.info.keyframe.toBoolean))
         else {
           val bits = f.descriptor.toBigInt
           featureStream += Right(Feature(f.x.toInt, f.y.toInt, f.bin.toInt, f.score.toLong, Feature.descriptorOf(bits)))

@@ -74,7 +74,7 @@ object TopSim {
       cycles += 1
       val f = dut.core.io.features
       if (f.valid.toBoolean && f.ready.toBoolean) {
-        if (f.frameEnd.toBoolean) featureStream += Left(FrameEnd(f.end.ok.toBoolean, f.end.keyframe.toBoolean))
+        if (f.end.now.toBoolean) featureStream += Left(FrameEnd(f.end.info.ok.toBoolean, f.end.info.keyframe.toBoolean))
         else {
           val bits = f.descriptor.toBigInt
           featureStream += Right(Feature(f.x.toInt, f.y.toInt, f.bin.toInt, f.score.toLong,
@@ -84,7 +84,7 @@ object TopSim {
       val c = dut.core.io.corners
       if (c.valid.toBoolean) corners += Corner(c.x.toInt, c.y.toInt, c.score.toLong)
       val o = dut.core.orientation.io.oriented
-      if (o.valid.toBoolean && !o.frameEnd.toBoolean)
+      if (o.valid.toBoolean && !o.end.now.toBoolean)
         oriented += Oriented(o.corner.x.toInt, o.corner.y.toInt, o.m10.toLong, o.m01.toLong, o.bin.toInt)
       val m = dut.matcher
       if (m.decide.done.toBoolean) {
