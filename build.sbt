@@ -24,6 +24,8 @@ lazy val spinalDeps = Seq(
 
 // Every suite builds its Verilator model once; running suites one at a time keeps a 2-core machine responsive.
 lazy val testSettings = Seq(
+  // the formatting (.scalafmt.conf) is checked with the tests; `./sbt scalafmtAll` applies it
+  Test / test := (Test / test).dependsOn(scalafmtCheckAll).value,
   Test / fork := true,
   Test / parallelExecution := false,
   Test / javaOptions ++= Seq("-Xmx6g", "-Xss16m"),

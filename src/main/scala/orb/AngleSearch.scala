@@ -20,6 +20,7 @@ class AngleSearch(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) exten
   val steps = Iterator.iterate(1)(_ * 2).takeWhile(_ <= m).toSeq.reverse // m, m/2, .., 1 when m is a power of 2
   val tWidth = log2Up(tangents.max + 1)
   val countWidth = log2Up(m + 1)
+
   /** a = hi 2^L + lo: lo fills a multiplier's operand, and so does the tangent */
   val loWidth = Arith.multiplierWidth
   require(tWidth <= Arith.multiplierWidth && momentWidth - loWidth <= Arith.multiplierWidth)

@@ -5,6 +5,7 @@ import spinal.lib._
 
 /** Small fixed-point helpers shared by the stages. */
 object Arith {
+
   /** operand width of the target's multiplier blocks (18 x 18 on Cyclone II and on the ECP5 proxy, unsigned too) */
   val multiplierWidth: Int = 18
 
@@ -44,7 +45,12 @@ object Arith {
   /** Inclusive prefix sums e(0) + ... + e(k) for each k of `wanted` (Kogge-Stone, only the sums those need), `width`
     * bits, with a register after every `levelsPerStage` adder levels and after the last; returns the sums and the
     * clocks they take. */
-  def prefixSums(e: collection.IndexedSeq[SInt], wanted: Seq[Int], width: Int, levelsPerStage: Int): (Map[Int, SInt], Int) = {
+  def prefixSums(
+      e: collection.IndexedSeq[SInt],
+      wanted: Seq[Int],
+      width: Int,
+      levelsPerStage: Int
+  ): (Map[Int, SInt], Int) = {
     val levels = log2Up(e.size)
     val need = Array.fill(levels + 1)(Set[Int]())
     need(levels) = wanted.toSet
@@ -69,12 +75,14 @@ object Arith {
   final case class SplitTable(table: Seq[BigInt], width: Int, parts: Int) {
     require(isPow2(parts) && table.nonEmpty && table.forall(v => v >= 0 && v < (BigInt(1) << width)))
     val partSize: Int = 1 << log2Up((table.size + parts - 1) / parts)
+
     /** part `q`'s word at `index` (its low bits) */
     private def word(q: Int, index: UInt): UInt = {
       val entries = (0 until partSize).map(i => table.lift(q * partSize + i).getOrElse(BigInt(0)))
       Vec(entries.map(v => U(v, width bits)))(index.resize(log2Up(partSize)))
     }
     def words(index: UInt): Vec[UInt] = Vec((0 until parts).map(word(_, index)))
+
     /** `words`, each part read with its own copy of the index (the copies kept apart: no one register drives
       * every part) */
     def wordsEach(indices: Seq[UInt]): Vec[UInt] = {

@@ -5,6 +5,7 @@ package orb
   * gets the same errors as every other app, each one line: "--x needs a value", "unknown argument 'y' (see --help)",
   * "--x takes ..., not 'v'". `--help` is the app's own business (it prints its usage). */
 object CommandLine {
+
   /** A bad command line: its message is the one line an app prints before it exits with status 2. */
   final class UsageError(message: String) extends Exception(message)
 
@@ -53,7 +54,9 @@ object CommandLine {
 
   /** A whole number from `lo` to `hi`. */
   def whole(flag: String, v: String, lo: Long, hi: Long): Long =
-    v.toLongOption.filter(n => n >= lo && n <= hi).getOrElse(fail(s"$flag takes a whole number from $lo to $hi, not '$v'"))
+    v.toLongOption.filter(n => n >= lo && n <= hi).getOrElse(
+      fail(s"$flag takes a whole number from $lo to $hi, not '$v'")
+    )
 
   /** A whole number from 1 up. */
   def positive(flag: String, v: String): Int =

@@ -10,17 +10,23 @@ import spinal.core._
 case class FrameConfig(maxWidth: Int = 1024, maxHeight: Int = 2047, coordWidth: Int = 11) {
   require(maxWidth >= 16 && maxHeight >= 16, "frames smaller than 16x16 are not supported")
   // x and y saturate at maxWidth / maxHeight after a fault, so those values must be representable too.
-  require(maxWidth < (1 << coordWidth) && maxHeight < (1 << coordWidth),
-    s"coordWidth=$coordWidth cannot hold maxWidth=$maxWidth / maxHeight=$maxHeight")
+  require(
+    maxWidth < (1 << coordWidth) && maxHeight < (1 << coordWidth),
+    s"coordWidth=$coordWidth cannot hold maxWidth=$maxWidth / maxHeight=$maxHeight"
+  )
   def addrWidth: Int = log2Up(maxWidth)
   def counterWidth: Int = 32
+
   /** an x or y coordinate */
   def coord(): UInt = UInt(coordWidth bits)
+
   /** an event counter of the register map (wraps) */
   def counter(): UInt = UInt(counterWidth bits)
+
   /** rows counted since reset, wrapping (`RowClock`): a corner's row tag is compared with the stream's within a few
     * dozen rows, so half the range must exceed that wait (`OrbConfig` checks it) */
   def rowTagWidth: Int = 12
+
   /** frames counted since reset, wrapping: a corner is decided in its own frame or the next */
   def frameTagWidth: Int = 4
   def rowTag(): UInt = UInt(rowTagWidth bits)
@@ -70,6 +76,7 @@ case class HarrisConfig(
   require(windowShift < 32, "the window shift must leave some of the window sum")
   require(border >= SegmentTestConfig.radius, "the segment test's circle must lie inside the frame")
   def k: Double = kNum.toDouble / (1 << kShift)
+
   /** The run-time parameters after reset, with another Harris threshold if given. */
   def defaultParams: CornerParams = params(defaultThreshold)
   def params(threshold: Long): CornerParams = CornerParams(threshold, segment.map(_.defaultThreshold))
@@ -96,8 +103,10 @@ case class HarrisConfig(
   def traceWidth: Int = bitsUnsigned(traceMax)
   def kTrace2Width: Int = bitsUnsigned(kTrace2Max)
   def detWidth: Int = bitsSigned(detMax)
+
   /** R lies in [-kTrace2Max - detMax, detMax]. */
   def responseWidth: Int = bitsSigned(detMax + kTrace2Max)
+
   /** A positive R is at most det <= windowedMax^2. */
   def scoreWidth: Int = bitsUnsigned(detMax >> scoreShift)
   require(scoreWidth <= 32, s"scores need $scoreWidth bits; raise scoreShift so that they fit the 32-bit threshold")
@@ -106,8 +115,10 @@ case class HarrisConfig(
 object HarrisConfig {
   val binomial: Seq[Int] = Seq(1, 6, 15, 20, 15, 6, 1)
   val binomialSum: Int = binomial.sum
+
   /** Context the detector needs around a corner: Sobel 1 + window 3 + non-maximum suppression 1. */
   val reach: Int = 5
+
   /** Raw rows the detector reads at once: the 7 rows of gradients, each needing one row above and below. */
   val rawRows: Int = 9
   def bitsUnsigned(max: BigInt): Int = max.bitLength max 1
@@ -119,7 +130,11 @@ object HarrisConfig {
   * @param segmentThreshold the segment test's intensity threshold t, or None for no segment test (every pixel a
   *                         candidate: pure Harris maxima)
   * @param target           the feature budget: features per frame (see `BudgetConfig`) */
-final case class CornerParams(threshold: Long, segmentThreshold: Option[Int], target: Int = BudgetConfig().defaultTarget) {
+final case class CornerParams(
+    threshold: Long,
+    segmentThreshold: Option[Int],
+    target: Int = BudgetConfig().defaultTarget
+) {
   require(threshold >= 0 && threshold <= 0xffffffffL, "the Harris threshold is a 32-bit register")
   require(segmentThreshold.forall(t => t >= 0 && t <= 255), "the segment threshold is 0..255")
   require(target >= 0 && target <= BudgetConfig.targetMax, s"the target is 0..${BudgetConfig.targetMax}")
@@ -151,24 +166,35 @@ final case class CornerParams(threshold: Long, segmentThreshold: Option[Int], ta
   *
   * @param defaultTarget the target after reset: 500, OpenCV's `nfeatures` default, below the keyframe store's
   *                      512 entries so that a keyframe is always stored whole */
-case class BudgetConfig(cellWidth: Int = 256, cellHeight: Int = 4, perCell: Int = 4, levelFracBits: Int = 2,
-                        defaultTarget: Int = 500) {
+case class BudgetConfig(
+    cellWidth: Int = 256,
+    cellHeight: Int = 4,
+    perCell: Int = 4,
+    levelFracBits: Int = 2,
+    defaultTarget: Int = 500
+) {
   require(isPow2(cellWidth) && isPow2(cellHeight), "cells are powers of two wide and tall")
-  require(cellWidth >= 2 * OrbDescriptorConfig.patchRadius + 1,
-    "cells at least 31 px wide: a row's corners within 31 columns then come from two cells at most")
-  require(cellHeight + HarrisConfig.reach + 1 <= OrbDescriptorConfig.patchRadius - 1,
-    "a cell must be complete before the orientation of its first row starts (row y + 15)")
+  require(
+    cellWidth >= 2 * OrbDescriptorConfig.patchRadius + 1,
+    "cells at least 31 px wide: a row's corners within 31 columns then come from two cells at most"
+  )
+  require(
+    cellHeight + HarrisConfig.reach + 1 <= OrbDescriptorConfig.patchRadius - 1,
+    "a cell must be complete before the orientation of its first row starts (row y + 15)"
+  )
   require(perCell >= 1 && perCell <= 16)
   require(levelFracBits >= 0 && levelFracBits <= 4)
   require(defaultTarget >= 0 && defaultTarget <= BudgetConfig.targetMax)
   def cellShift: Int = log2Up(cellWidth)
   def bandShift: Int = log2Up(cellHeight)
   def cellsPerRow(maxWidth: Int): Int = (maxWidth + cellWidth - 1) / cellWidth
+
   /** A band's winners are final when the first pixel of this row (relative to the band's end) is processed: its
     * last corner leaves the detector `reach` rows later, and one row more covers the detector's latency. */
   def emitRowOffset: Int = HarrisConfig.reach + 1
   def levels(scoreWidth: Int): Int = scoreWidth << levelFracBits
   def levelWidth(scoreWidth: Int): Int = log2Up(levels(scoreWidth))
+
   /** Cells of width W whose columns meet the corners' columns [border, W - 1 - border]. */
   def cellsWithCorners(width: Int, border: Int): Int =
     if (width < 2 * border + 1) 0 else (width - 1 - border) / cellWidth - border / cellWidth + 1
@@ -197,9 +223,26 @@ case class SegmentTestConfig(arc: Int = 9, defaultThreshold: Int = 20) {
 
 object SegmentTestConfig {
   val radius: Int = 3
+
   /** The 16 circle offsets (dx, dy) in circular order, as OpenCV's FAST (dy > 0 is down). */
-  val circle: Seq[(Int, Int)] = Seq((0, -3), (1, -3), (2, -2), (3, -1), (3, 0), (3, 1), (2, 2), (1, 3),
-    (0, 3), (-1, 3), (-2, 2), (-3, 1), (-3, 0), (-3, -1), (-2, -2), (-1, -3))
+  val circle: Seq[(Int, Int)] = Seq(
+    (0, -3),
+    (1, -3),
+    (2, -2),
+    (3, -1),
+    (3, 0),
+    (3, 1),
+    (2, 2),
+    (1, 3),
+    (0, 3),
+    (-1, 3),
+    (-2, 2),
+    (-3, 1),
+    (-3, 0),
+    (-3, -1),
+    (-2, -2),
+    (-1, -3)
+  )
 }
 
 /** ORB descriptor: orientation by intensity centroid, rotated BRIEF on a smoothed image.
@@ -218,11 +261,17 @@ object SegmentTestConfig {
   *                         dropped and counted
   * @param readyQueueDepth  oriented corners waiting for a descriptor engine (checked as the corner queue)
   */
-case class OrbDescriptorConfig(angleBins: Int = 512, tanFracBits: Int = 18, rotationFracBits: Int = 16,
-                               cornerQueueDepth: Int = 64,
-                               slackRows: Int = 8, readyQueueDepth: Int = 128) {
+case class OrbDescriptorConfig(
+    angleBins: Int = 512,
+    tanFracBits: Int = 18,
+    rotationFracBits: Int = 16,
+    cornerQueueDepth: Int = 64,
+    slackRows: Int = 8,
+    readyQueueDepth: Int = 128
+) {
   require(angleBins >= 8 && angleBins % 8 == 0, "angleBins must be a multiple of 8")
   require(cornerQueueDepth >= 2 && slackRows >= 1 && readyQueueDepth >= 2)
+
   /** Smoothed rows kept: the 37 a descriptor reads plus `slackRows` in which it may still be computed. */
   def smoothedRows: Int = 2 * OrbDescriptorConfig.sampleReach + 1 + slackRows
   require(tanFracBits >= 8 && tanFracBits <= 30 && rotationFracBits >= 8 && rotationFracBits <= 30)
@@ -230,10 +279,12 @@ case class OrbDescriptorConfig(angleBins: Int = 512, tanFracBits: Int = 18, rota
   def binsPerOctant: Int = angleBins / 8
   def binsPerQuadrant: Int = angleBins / 4
   def binWidth: Int = log2Up(angleBins)
+
   /** tan of the boundary between bins j and j + 1 of the first octant, scaled 2^tanFracBits (the angle search's
     * table) */
   val boundaryTangents: IndexedSeq[Long] =
     (0 until binsPerOctant).map(j => math.round(math.tan(math.toRadians((j + 0.5) * binDegrees)) * (1L << tanFracBits)))
+
   /** Banks of the smoothed-row store: two ring slots each (the last one alone when the count is odd). */
   def smoothedBanks: Int = (smoothedRows + 1) / 2
 
@@ -253,28 +304,37 @@ case class OrbDescriptorConfig(angleBins: Int = 512, tanFracBits: Int = 18, rota
       case _ => (s, -c)
     }
   }
-  require((0 until angleBins).forall { b =>
-    val t = math.toRadians(b * binDegrees)
-    val scale = (1L << rotationFracBits).toDouble
-    cosSin(b) == ((math.round(math.cos(t) * scale), math.round(math.sin(t) * scale)))
-  }, "the quarter table must give every bin's rounded cos and sin")
+  require(
+    (0 until angleBins).forall { b =>
+      val t = math.toRadians(b * binDegrees)
+      val scale = (1L << rotationFracBits).toDouble
+      cosSin(b) == ((math.round(math.cos(t) * scale), math.round(math.sin(t) * scale)))
+    },
+    "the quarter table must give every bin's rounded cos and sin"
+  )
 }
 
 object OrbDescriptorConfig {
+
   /** rBRIEF tests, one bit each; OpenCV's descriptor holds them in bytes, test i in byte i / 8, bit i % 8 */
   val descriptorBits: Int = 256
   val descriptorBytes: Int = descriptorBits / 8
+
   /** Radius of OpenCV's orientation patch, and its half widths per row (`umax`, rows 0..15). */
   val patchRadius: Int = 15
   val umax: Seq[Int] = Seq(15, 15, 15, 15, 14, 14, 14, 13, 13, 12, 11, 10, 9, 8, 6, 3)
+
   /** The rotated tests reach at most 18 px (|(x, y)| <= 18.39 before rounding). */
   val sampleReach: Int = 18
+
   /** OpenCV's own 8-bit kernel for GaussianBlur(7x7, sigma 2): the Gaussian quantised to 1/256 with error
     * diffusion, so that it sums to exactly 256 (used per pass: the 2-D weights sum to 2^16). */
   val blurKernel: Seq[Int] = Seq(18, 34, 48, 56, 48, 34, 18)
   val blurRadius: Int = 3
+
   /** A corner's descriptor can start when raw row cy + startRowOffset begins: its 37 smoothed rows are complete. */
   val startRowOffset: Int = sampleReach + blurRadius + 1
+
   /** For a column |u| of the orientation patch, the rows |v| <= vmax(|u|) belong to the disc. */
   def vmax(u: Int): Int = umax.lastIndexWhere(_ >= u.abs)
 }
@@ -295,25 +355,44 @@ object OrbDescriptorConfig {
   * @param defaultHammingThreshold, defaultRatio, defaultRatioTest, defaultCrossCheck the run-time parameters'
   *                      values after reset (registers of `OrbTop`)
   */
-case class MatcherConfig(storeCapacity: Int = 512, comparators: Int = 4, popcountLevelsPerStage: Int = 2,
-                         ratioFracBits: Int = 8, outputDepth: Int = 64, outputTimeout: Int = 4096,
-                         defaultHammingThreshold: Int = 64, defaultRatio: Int = 205,
-                         defaultRatioTest: Boolean = false, defaultCrossCheck: Boolean = true) {
+case class MatcherConfig(
+    storeCapacity: Int = 512,
+    comparators: Int = 4,
+    popcountLevelsPerStage: Int = 2,
+    ratioFracBits: Int = 8,
+    outputDepth: Int = 64,
+    outputTimeout: Int = 4096,
+    defaultHammingThreshold: Int = 64,
+    defaultRatio: Int = 205,
+    defaultRatioTest: Boolean = false,
+    defaultCrossCheck: Boolean = true
+) {
   require(storeCapacity >= 1 && ratioFracBits >= 1 && ratioFracBits <= 16)
-  require(comparators >= 1 && isPow2(comparators) && storeCapacity % comparators == 0,
-    "comparators must be a power of two dividing storeCapacity")
+  require(
+    comparators >= 1 && isPow2(comparators) && storeCapacity % comparators == 0,
+    "comparators must be a power of two dividing storeCapacity"
+  )
   require(popcountLevelsPerStage >= 1 && outputTimeout >= 1)
   require(outputDepth >= MatcherConfig.pushLatency + 2, "the output FIFO must hold the sweep's pushes in flight")
-  require(defaultHammingThreshold >= 0 && defaultHammingThreshold <= 256 && defaultRatio >= 0 && defaultRatio < (2 << ratioFracBits))
+  require(
+    defaultHammingThreshold >= 0 && defaultHammingThreshold <= 256 && defaultRatio >= 0 && defaultRatio < (2 << ratioFracBits)
+  )
+
   /** the run-time parameters after reset (the registers of `OrbTop`), as the model takes them */
   def defaultParams: orb.model.MatchParams =
-    orb.model.MatchParams(defaultHammingThreshold, if (defaultRatioTest) Some(defaultRatio) else None, defaultCrossCheck)
+    orb.model.MatchParams(
+      defaultHammingThreshold,
+      if (defaultRatioTest) Some(defaultRatio) else None,
+      defaultCrossCheck
+    )
   def groups: Int = storeCapacity / comparators
   def ratioWidth: Int = ratioFracBits + 1
+
   /** clocks a live feature holds the matcher: the scan, the RAM read (address register, RAM, output register), the
     * popcount, the lane register, the merge levels, the accumulation, the ratio product, one to decide */
   def clocksPerFeature: Int =
     groups + MatcherConfig.readLatency + MatcherConfig.popcountStages(this) + 1 + log2Up(comparators) + 1 + 1 + 1
+
   /** an upper bound on the clocks a frame's end item holds the matcher: a live frame's cross-checked entries leave
     * one per clock (storeCapacity), a keyframe's cross-check words are cleared one group per clock, plus the
     * pipeline */
@@ -321,16 +400,21 @@ case class MatcherConfig(storeCapacity: Int = 512, comparators: Int = 4, popcoun
 }
 
 object MatcherConfig {
+
   /** Hamming distances 0..256, and 257 for "none" (no second entry; no live feature yet) */
   val distanceWidth: Int = log2Up(OrbDescriptorConfig.descriptorBits + 2)
   val none: Int = OrbDescriptorConfig.descriptorBits + 1
+
   /** clocks from a read's address to its data: the address register (each lane's own), the RAM, its output register */
   val readLatency: Int = 3
+
   /** clocks from the sweep's read of an entry to its correspondence's push into the output FIFO (the entry picked
     * from its lane into a register, then the push's register) */
   val pushLatency: Int = readLatency + 2
+
   /** Parts of a lane's copy of the live descriptor, each loaded by its own copy of the idle flag. */
   val liveDescriptorParts: Int = 8
+
   /** The popcount adds the counts of 8-bit chunks in a binary tree. */
   val chunkBits: Int = 8
   val treeLevels: Int = log2Up(OrbDescriptorConfig.descriptorBits / chunkBits)
@@ -353,42 +437,68 @@ object MatcherConfig {
 
 /** The whole core: frame, detector, feature budget, descriptor unit and matcher, and the checks that tie them together
   * (the budget's service bound, the queue depths, the row tags). */
-case class OrbConfig(frame: FrameConfig = FrameConfig(), harris: HarrisConfig = HarrisConfig(),
-                     descriptor: OrbDescriptorConfig = OrbDescriptorConfig(), matcher: MatcherConfig = MatcherConfig(),
-                     budget: BudgetConfig = BudgetConfig()) {
+case class OrbConfig(
+    frame: FrameConfig = FrameConfig(),
+    harris: HarrisConfig = HarrisConfig(),
+    descriptor: OrbDescriptorConfig = OrbDescriptorConfig(),
+    matcher: MatcherConfig = MatcherConfig(),
+    budget: BudgetConfig = BudgetConfig()
+) {
   // Every sample (18 px + 3 px of blur) inside the image, and row cy + 22, where a descriptor starts, in the frame.
-  require(harris.border >= OrbDescriptorConfig.startRowOffset && harris.border >= OrbDescriptorConfig.patchRadius,
-    s"the border must be at least ${OrbDescriptorConfig.startRowOffset}: a corner's descriptor starts at row y + 22")
+  require(
+    harris.border >= OrbDescriptorConfig.startRowOffset && harris.border >= OrbDescriptorConfig.patchRadius,
+    s"the border must be at least ${OrbDescriptorConfig.startRowOffset}: a corner's descriptor starts at row y + 22"
+  )
   // A corner's row tag is compared with the smoothed stream's row count from the orientation of its last row (row
   // cy + 15, 7 rows before its descriptor may start) until its descriptor starts or it is refused: at most
   // `slackRows` rows after the start row, plus a clock for each corner ahead of it in the ready queue. Half the tag's
   // range must exceed that, so the difference never wraps.
-  require((1 << (frame.rowTagWidth - 1)) > OrbDescriptorConfig.startRowOffset + descriptor.slackRows + descriptor.readyQueueDepth,
-    s"rowTagWidth ${frame.rowTagWidth} is too narrow for the descriptor unit's wait")
+  require(
+    (1 << (frame.rowTagWidth - 1)) > OrbDescriptorConfig.startRowOffset + descriptor.slackRows + descriptor.readyQueueDepth,
+    s"rowTagWidth ${frame.rowTagWidth} is too narrow for the descriptor unit's wait"
+  )
   require(frame.frameTagWidth >= 2, "a corner's frame tag must tell its frame from the next and the one before")
+
   /** Raw-image rows kept by the shared line buffer: as many as its most demanding reader needs (the orientation
     * disc, 31 rows; Harris reads the newest 9, the smoother the newest 7). */
   def rawRows: Int = HarrisConfig.rawRows max (2 * OrbDescriptorConfig.patchRadius + 1)
   def maxWidth: Int = frame.maxWidth
+
   /** The run-time parameters after reset: the detector's and the budget's target. */
   def defaultParams: CornerParams = harris.defaultParams.copy(target = budget.defaultTarget)
 
   // The feature budget's cells against what the stages behind them can serve (see `budgetService`).
-  require(harris.border >= budget.cellHeight + budget.emitRowOffset,
-    "every band with corners must be emitted before its frame ends")
-  require(perCellFor(frame.maxWidth) == budget.perCell,
+  require(
+    harris.border >= budget.cellHeight + budget.emitRowOffset,
+    "every band with corners must be emitted before its frame ends"
+  )
+  require(
+    perCellFor(frame.maxWidth) == budget.perCell,
     s"the stages behind the feature budget cannot serve ${budget.perCell} corners per cell in ${frame.maxWidth}-px lines: " +
-      budgetService(frame.maxWidth, budget.perCell).getOrElse(""))
+      budgetService(frame.maxWidth, budget.perCell).getOrElse("")
+  )
+
   /** The most corners the budget lets through per band of `cellHeight` rows, in the longest lines. */
   def budgetPerBand: Int = budget.perCell * budget.cellsWithCorners(frame.maxWidth, harris.border)
+
   /** Bands whose corners wait in the orientation queue at once: from a band's emission (row band end +
     * `emitRowOffset`) to the orientation of its last row (row + 15); and in the descriptor unit's ready queue: from
     * the orientation of a row (row + 15) until its descriptor must start (row + 22 + `slackRows`). */
   def bandsQueued(fromRow: Int, toRow: Int): Int = (toRow - fromRow) / budget.cellHeight + 2
-  require(descriptor.cornerQueueDepth >= budgetPerBand * bandsQueued(budget.cellHeight + budget.emitRowOffset,
-    budget.cellHeight - 1 + OrbDescriptorConfig.patchRadius), "the orientation's corner queue is too short for the budget's bands")
-  require(descriptor.readyQueueDepth >= budgetPerBand * bandsQueued(OrbDescriptorConfig.patchRadius,
-    OrbDescriptorConfig.startRowOffset + descriptor.slackRows), "the descriptor unit's ready queue is too short for the budget's bands")
+  require(
+    descriptor.cornerQueueDepth >= budgetPerBand * bandsQueued(
+      budget.cellHeight + budget.emitRowOffset,
+      budget.cellHeight - 1 + OrbDescriptorConfig.patchRadius
+    ),
+    "the orientation's corner queue is too short for the budget's bands"
+  )
+  require(
+    descriptor.readyQueueDepth >= budgetPerBand * bandsQueued(
+      OrbDescriptorConfig.patchRadius,
+      OrbDescriptorConfig.startRowOffset + descriptor.slackRows
+    ),
+    "the descriptor unit's ready queue is too short for the budget's bands"
+  )
 
   /** Clocks the descriptor stage needs per feature in a busy stretch: the matcher's scan, or the engine's front end
     * and the dispatch, whichever is longer (the engine starts a corner while the one before drains); a keyframe
@@ -445,16 +555,17 @@ case class OrbConfig(frame: FrameConfig = FrameConfig(), harris: HarrisConfig = 
       else Some(s"W = $w: $n budget corners in ${d + 1} rows need $finish clocks, the slack gives ${(d + slack) * w}")
     }
     val steady = if (perBand * s <= ch.toLong * w) None
-      else Some(s"W = $w: $perBand corners per band of $ch rows need ${perBand * s} clocks, the band has ${ch * w}")
+    else Some(s"W = $w: $perBand corners per band of $ch rows need ${perBand * s} clocks, the band has ${ch * w}")
     // A band's winners leave one per `FeatureBudget.winnerClocks` from its emission row: done before the band two
     // later (same bank) gets its first corner, and before the band's first row needs its orientation.
     val emitting = (perBand + 2) * FeatureBudget.winnerClocks
-    val emitRows = (budget.cellHeight - 1) min (OrbDescriptorConfig.patchRadius - budget.cellHeight - budget.emitRowOffset)
+    val emitRows =
+      (budget.cellHeight - 1) min (OrbDescriptorConfig.patchRadius - budget.cellHeight - budget.emitRowOffset)
     val emission = if (emitting < emitRows.toLong * w) None
-      else Some(s"W = $w: a band's $perBand winners leave in $emitting clocks, more than $emitRows rows")
+    else Some(s"W = $w: a band's $perBand winners leave in $emitting clocks, more than $emitRows rows")
     val gapRows = harris.border + OrbDescriptorConfig.startRowOffset + 1 - slack
     val between = if (matcher.frameEndClocks + 2L * s + tDesc < gapRows.toLong * w) None
-      else Some(s"W = $w: the matcher's end of frame does not fit between two frames' corners")
+    else Some(s"W = $w: the matcher's end of frame does not fit between two frames' corners")
     (windows ++ steady.iterator ++ emission.iterator ++ between.iterator).nextOption()
   }
 
@@ -462,19 +573,25 @@ case class OrbConfig(frame: FrameConfig = FrameConfig(), harris: HarrisConfig = 
     * to serve that many (`budgetService`); 0 (no feature at all) in frames too narrow even for one. */
   def perCellFor(w: Int): Int = perCellTable.getOrElse(w, 0)
   private lazy val perCellTable: Map[Int, Int] =
-    ((2 * harris.border + 1) to frame.maxWidth).map(w => w -> (budget.perCell to 1 by -1).find(k => budgetService(w, k).isEmpty).getOrElse(0)).toMap
+    ((2 * harris.border + 1) to frame.maxWidth).map(w =>
+      w -> (budget.perCell to 1 by -1).find(k => budgetService(w, k).isEmpty).getOrElse(0)
+    ).toMap
+
   /** Where `perCellFor` changes: (from width, corners per cell), ascending from the narrowest frame with a corner;
     * narrower frames have none. */
   lazy val perCellSteps: Seq[(Int, Int)] = {
     val ws = (2 * harris.border + 1) to frame.maxWidth
     ws.map(w => (w, perCellFor(w))).foldLeft(Vector[(Int, Int)]()) { case (acc, (w, k)) =>
-      if (acc.lastOption.forall(_._2 != k)) acc :+ (w -> k) else acc }
+      if (acc.lastOption.forall(_._2 != k)) acc :+ (w -> k) else acc
+    }
   }
 }
 
 object OrbConfig {
+
   /** DE2-70 / Cyclone II EP2C70 target, 1024-pixel lines. */
   val default: OrbConfig = OrbConfig()
+
   /** 640-pixel lines (VGA cameras): smaller line buffers. */
   val vga: OrbConfig = OrbConfig(frame = FrameConfig(maxWidth = 640, maxHeight = 1023))
 

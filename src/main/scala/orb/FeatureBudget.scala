@@ -89,13 +89,16 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
       s.addAttribute("preserve")
       s
     }
+
     /** the list places in use in this line length, a register (the length changes only between frames) */
     val inList = Vec((0 until k).map(i => RegNext(U(i) < perCell.now) init False))
     val fetched = new Area {
       val c = arriving.stage()
       val bank = RegNext(arrivingBank)
       val cellIndex = RegNext(arrivingCell)
-      val list = Vec((0 until k).map(i => RegNext(MuxOH.or(selects(i), lists.map { case (bank, cell) => banks(bank)(cell)(i) }))))
+      val list = Vec((0 until k).map(i =>
+        RegNext(MuxOH.or(selects(i), lists.map { case (bank, cell) => banks(bank)(cell)(i) }))
+      ))
     }
     val read = new Area {
       val c = fetched.c.stage()
@@ -114,7 +117,8 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
       val bank = RegNext(read.bank)
       val cellIndex = RegNext(read.cellIndex)
       val list = RegNext(read.list)
-      val ahead = Vec((0 until k).map(i => RegNext(read.list(i).valid && read.list(i).score >= read.scores(i) && inList(i))))
+      val ahead =
+        Vec((0 until k).map(i => RegNext(read.list(i).valid && read.list(i).score >= read.scores(i) && inList(i))))
       val full = RegNext((0 until k).map(i => !inList(i) || read.list(i).valid).andR)
     }
     val c = compare.c
@@ -162,6 +166,7 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
       RegNext(read.c.valid && read.bank === bank && read.cellIndex === cell) init False
     }
     for (((bank, cell), write) <- lists.zip(writes)) when(write) { banks(bank)(cell) := updated }
+
     /** a corner on its way into a list */
     val busy = arriving.valid || fetched.c.valid || read.c.valid || c.valid
   }
@@ -173,7 +178,9 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
     val p = io.pixels
     val rowStart = p.valid && p.x === 0 && p.active
     val sinceEnd = p.y - b.emitRowOffset
-    val trigger = RegNext(rowStart && p.y >= b.cellHeight + b.emitRowOffset && sinceEnd(b.bandShift - 1 downto 0) === 0) init False
+    val trigger =
+      RegNext(rowStart && p.y >= b.cellHeight + b.emitRowOffset && sinceEnd(b.bandShift - 1 downto 0) === 0) init False
+
     /** the band that ends `emitRowOffset` rows before the triggering row */
     val band = RegNext(sinceEnd(f.coordWidth - 1 downto b.bandShift) - 1)
     val busy = Reg(Bool()) init False
@@ -199,11 +206,13 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
     case class Candidate() extends Bundle {
       val valid = Bool()
       val key = UInt(b.bandShift + log2Up(cells max 2) + b.cellShift bits)
+
       /** the entry's place among the band's, one-hot: its score is picked and its entry emptied by it after the
         * choice */
       val place = Bits(cells * k bits)
     }
     def earlier(l: Candidate, r: Candidate): Candidate = Mux(l.valid && (!r.valid || l.key <= r.key), l, r)
+
     /** the first of `cs` (two or more) by levels of comparisons, a register after each: the last level's input */
     def lastLevelOf(cs: Seq[Candidate]): Candidate = {
       val pairs = cs.grouped(2).map(_.reduce(earlier)).toSeq
@@ -292,6 +301,7 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
 
   /** The leading one's position of a score (`BudgetModel.level`, first step). */
   def leadOf(score: UInt): UInt = {
+
     /** (any bit set, the highest set bit's position) of `bits`, as a balanced tree of halves */
     def highest(bits: Seq[Bool]): (Bool, UInt) =
       if (bits.size == 1) (bits.head, U(0, 0 bits))
@@ -304,6 +314,7 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
       }
     highest(score.asBools.toSeq)._2.resize(log2Up(h.scoreWidth))
   }
+
   /** The leading one's position and the `levelFracBits` bits after it (`BudgetModel.level`), from the position. */
   def levelOf(score: UInt, lead: UInt): UInt = {
     val fb = b.levelFracBits
@@ -453,7 +464,12 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
 
   /** Connects the budget behind a detector: the stream position from the line buffer's columns, the detector's
     * corners and frame ends, the tracker's geometry, the run-time target (from the parent's scope). */
-  def attach(columns: Flow[LineColumn], detector: HarrisDetector, frameGeometry: FrameGeometry, frameTarget: UInt): Unit = {
+  def attach(
+      columns: Flow[LineColumn],
+      detector: HarrisDetector,
+      frameGeometry: FrameGeometry,
+      frameTarget: UInt
+  ): Unit = {
     io.pixels << columns.map(_.pixel)
     io.corners << detector.io.corners
     io.frameEnds << detector.io.frameEnds
@@ -463,6 +479,7 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
 }
 
 object FeatureBudget {
+
   /** Clocks between two winners leaving a bank: the registered steps that choose one, and the histogram's read, its
     * registered data, the write back. */
   val winnerClocks: Int = 8

@@ -10,6 +10,7 @@ class FrameTracker(c: FrameConfig) extends Component {
   val io = new Bundle {
     val pixels = slave Flow (PixelBeat())
     val tracked = master Flow (TrackedPixel(c))
+
     /** expected geometry of the frame being processed */
     val geometry = out(FrameGeometry(c))
     val counters = out(FrameCountersHw(c))
@@ -25,9 +26,11 @@ class FrameTracker(c: FrameConfig) extends Component {
   val remWidth = cw + 2
   case class Known() extends Bundle {
     val remW, remH = SInt(remWidth bits)
+
     /** x >= limitW, x == limitW - 1, y >= limitH, y == limitH - 1 */
     val wOver, wLast, hOver, hLast = Bool()
     val xZero, xMax, yZero, yOne, yTwo, yMax = Bool()
+
     /** lineW, expW, expH: == 0, 1, 2, and the value less one */
     val lineW0, lineW1, lineW2, expW0, expW1, expW2, expH0, expH1, expH2 = Bool()
     val lineWm1, expWm1, expHm1 = UInt(cw bits)
@@ -35,8 +38,24 @@ class FrameTracker(c: FrameConfig) extends Component {
   val known = Reg(Known())
   known.remW.init(c.maxWidth)
   known.remH.init(c.maxHeight)
-  for (b <- Seq(known.wOver, known.wLast, known.hOver, known.hLast, known.xMax, known.yOne, known.yTwo, known.yMax,
-    known.lineW1, known.lineW2, known.expW1, known.expW2, known.expH1, known.expH2)) b.init(False)
+  for (
+    b <- Seq(
+      known.wOver,
+      known.wLast,
+      known.hOver,
+      known.hLast,
+      known.xMax,
+      known.yOne,
+      known.yTwo,
+      known.yMax,
+      known.lineW1,
+      known.lineW2,
+      known.expW1,
+      known.expW2,
+      known.expH1,
+      known.expH2
+    )
+  ) b.init(False)
   for (b <- Seq(known.xZero, known.yZero, known.lineW0, known.expW0, known.expH0)) b.init(True)
   // 0 - 1
   for (v <- Seq(known.lineWm1, known.expWm1, known.expHm1)) v.init(U((1 << cw) - 1, cw bits))
@@ -59,6 +78,7 @@ class FrameTracker(c: FrameConfig) extends Component {
   // The frame state this pixel is checked against (after a start of frame, the new frame's).
   val cur = new Area {
     val start = fire && b.sof
+
     /** the frame before was good: its geometry becomes the expected one */
     val learnt = inFrame && close.good
     val nowLocked = Mux(start && inFrame, close.good, locked)
@@ -113,9 +133,11 @@ class FrameTracker(c: FrameConfig) extends Component {
   // The comparisons of the state after this beat.
   val next = new Area {
     import cur._
+
     /** x - limitW, y - limitH now (after a start of frame: the new limits, x = y = 0) */
     val remW = Mux(start, Mux(nowLocked, nowExpW, U(c.maxWidth, cw bits)).resize(remWidth).asSInt, known.remW)
     val remH = Mux(start, Mux(nowLocked, nowExpH, U(c.maxHeight, cw bits)).resize(remWidth).asSInt, known.remH)
+
     /** remW <= 1, remW == 2 (likewise remH): where the next pixel stands */
     val wNear = Mux(start, nowLocked && (expW0 || expW1), known.remW <= 1)
     val wNext = Mux(start, nowLocked && expW2, known.remW === 2)
@@ -126,6 +148,7 @@ class FrameTracker(c: FrameConfig) extends Component {
     val xIsMaxM1 = !start && x === c.maxWidth - 1
     val yIsMaxM1 = !start && y === c.maxHeight - 1
     val xIsOne = !start && x === 1
+
     /** the line's width is kept (known, or not learnt from a faulty line) */
     val keep = widthKnownNow || lineFaultedNow || check.lineFault
   }
@@ -162,7 +185,9 @@ class FrameTracker(c: FrameConfig) extends Component {
         known.lineW2 := Mux(next.keep, cur.lineW2, next.xIsOne)
         known.lineWm1 := Mux(next.keep, cur.lineWm1, cur.xNow)
         val knownAfter = cur.widthKnownNow || learns
-        known.remW := Mux(knownAfter, Mux(next.keep, cur.lineWNow, cur.xNow + 1), U(c.maxWidth, cw bits)).resize(remWidth).asSInt
+        known.remW := Mux(knownAfter, Mux(next.keep, cur.lineWNow, cur.xNow + 1), U(c.maxWidth, cw bits)).resize(
+          remWidth
+        ).asSInt
         known.wOver := knownAfter && next.keep && cur.lineW0
         known.wLast := knownAfter && Mux(next.keep, cur.lineW1, cur.xZero)
         x := 0
@@ -204,8 +229,12 @@ class FrameTracker(c: FrameConfig) extends Component {
     }
   }
   // The fault counters count a clock late: their increments are registered, so no adder waits for the checks.
-  val lineFaults = RegNext(U(fire && close.countLine, 2 bits) + U(fire && cur.inFrameNow && check.lineFault && !cur.lineFaultedNow, 2 bits)) init 0
-  val frameFaults = RegNext(U(fire && close.countFrame, 2 bits) + U(fire && cur.inFrameNow && check.first, 2 bits)) init 0
+  val lineFaults = RegNext(U(fire && close.countLine, 2 bits) + U(
+    fire && cur.inFrameNow && check.lineFault && !cur.lineFaultedNow,
+    2 bits
+  )) init 0
+  val frameFaults =
+    RegNext(U(fire && close.countFrame, 2 bits) + U(fire && cur.inFrameNow && check.first, 2 bits)) init 0
   badLines := badLines + lineFaults.resize(c.counterWidth)
   badFrames := badFrames + frameFaults.resize(c.counterWidth)
 
@@ -227,6 +256,7 @@ class FrameTracker(c: FrameConfig) extends Component {
 }
 
 object FrameTracker {
+
   /** clocks from a beat to its tracked pixel: the input register and the checks */
   val latency: Int = 2
 }

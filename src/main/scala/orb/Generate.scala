@@ -16,8 +16,12 @@ object Generate {
        |                   100 for a faster camera)
        |  --help           this text""".stripMargin
 
-  final case class Options(out: String = defaultOut, config: OrbConfig = OrbConfig.default, configName: String = "default",
-                           clockMhz: Double = 50.0)
+  final case class Options(
+      out: String = defaultOut,
+      config: OrbConfig = OrbConfig.default,
+      configName: String = "default",
+      clockMhz: Double = 50.0
+  )
 
   private val options: Seq[CommandLine.Opt[Options]] = Seq(
     CommandLine.valued("--out")((o, v) => o.copy(out = v)),
@@ -30,8 +34,11 @@ object Generate {
       o.copy(config = o.config.copy(frame = o.config.frame.copy(maxWidth = w)))
     },
     CommandLine.valued("--clock-mhz") { (o, v) =>
-      o.copy(clockMhz = CommandLine.number("--clock-mhz", v, "a frequency in MHz from 0 to 500")(f => f > 0 && f <= 500))
-    })
+      o.copy(clockMhz =
+        CommandLine.number("--clock-mhz", v, "a frequency in MHz from 0 to 500")(f => f > 0 && f <= 500)
+      )
+    }
+  )
 
   /** Parses the arguments; Left is a one-line error. */
   def parse(args: Seq[String]): Either[String, Options] =
@@ -40,16 +47,22 @@ object Generate {
   /** The SpinalHDL settings for the Cyclone II target: Altera device (memories inferred as M4K with synchronous
     * reads), plain Verilog, asynchronous active-high reset. */
   def spinalConfig(out: String): SpinalConfig =
-    SpinalConfig(targetDirectory = out, device = Device.ALTERA, mode = Verilog,
+    SpinalConfig(
+      targetDirectory = out,
+      device = Device.ALTERA,
+      mode = Verilog,
       defaultConfigForClockDomains = ClockDomainConfig(resetKind = ASYNC, resetActiveLevel = HIGH),
-      oneFilePerComponent = false)
+      oneFilePerComponent = false
+    )
 
   /** Writes the Verilog (and any memory initialisation files) and the Quartus project; returns the Verilog. */
   def generate(o: Options): File = {
     val dir = new File(o.out)
     dir.mkdirs()
     val report = spinalConfig(o.out).generate(new OrbTop(o.config))
-    val sources = report.generatedSourcesPaths.toSeq.map(p => dir.toPath.toAbsolutePath.relativize(new File(p).toPath.toAbsolutePath).toString).sorted
+    val sources = report.generatedSourcesPaths.toSeq.map(p =>
+      dir.toPath.toAbsolutePath.relativize(new File(p).toPath.toAbsolutePath).toString
+    ).sorted
     QuartusProject.write(dir, report.toplevelName, sources, o.clockMhz)
     new File(dir, s"${report.toplevelName}.v")
   }

@@ -117,7 +117,8 @@ class GroupPlanner(bankWidth: Int) extends Component {
     val plan = GroupPlan()
     for (i <- all) {
       val t = i / 2
-      val second = if (i % 2 == 1) Mux(test(t).fits, U(0, issuesWidth bits), U(1, issuesWidth bits)) else U(0, issuesWidth bits)
+      val second =
+        if (i % 2 == 1) Mux(test(t).fits, U(0, issuesWidth bits), U(1, issuesWidth bits)) else U(0, issuesWidth bits)
       plan.issue(i) := Mux(group.fits, U(0, issueWidth bits), (testStart(t) + second).resize(issueWidth))
       // a point read alone must read through port B (two such points of a test in one bank): the first B lane
       val alone = U(lanesPerPort, laneWidth bits)
@@ -129,6 +130,7 @@ class GroupPlanner(bankWidth: Int) extends Component {
 }
 
 object GroupPlanner {
+
   /** registered steps from the points to the plan */
   val latency: Int = 4
   val issueWidth: Int = log2Up(pointsPerGroup)

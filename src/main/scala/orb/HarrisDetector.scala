@@ -10,21 +10,55 @@ import Arith._
   * buffer's RAM, across the chip), puts a register after every adder tree and multiplier, and gives the gradients
   * two registers before the products (the second becomes the multiplier block's input register, the first stays
   * beside the Sobel adders, so no adder drives the long wires to the multipliers). */
-case class HarrisStages(sobel: Int = 1, sobelDiff: Int = 2, products: Int = 4, columnPre: Int = 5, columnMid: Int = 6,
-                        columnSum: Int = 7, rowPre: Int = 8, rowMid: Int = 9, rowSum: Int = 10, trace: Int = 11,
-                        multiply: Int = 12, kTrace: Int = 13, response: Int = 14, suppressRead: Int = 15,
-                        segmentCompare: Int = 1, segmentArc: Int = 2) {
-  private val order = Seq(sobel, sobelDiff, products, columnPre, columnMid, columnSum, rowPre, rowMid, rowSum, trace,
-    multiply, kTrace, response, suppressRead)
-  require(order.head >= 0 && order.zip(order.tail).forall { case (a, b) => b > a },
-    "each step needs the previous one's registered result: node indices must strictly increase")
-  require(segmentCompare >= 0 && segmentArc > segmentCompare && segmentArc <= response,
-    "the segment test compares, then combines arcs a node later, at the latest where the score is formed")
+case class HarrisStages(
+    sobel: Int = 1,
+    sobelDiff: Int = 2,
+    products: Int = 4,
+    columnPre: Int = 5,
+    columnMid: Int = 6,
+    columnSum: Int = 7,
+    rowPre: Int = 8,
+    rowMid: Int = 9,
+    rowSum: Int = 10,
+    trace: Int = 11,
+    multiply: Int = 12,
+    kTrace: Int = 13,
+    response: Int = 14,
+    suppressRead: Int = 15,
+    segmentCompare: Int = 1,
+    segmentArc: Int = 2
+) {
+  private val order = Seq(
+    sobel,
+    sobelDiff,
+    products,
+    columnPre,
+    columnMid,
+    columnSum,
+    rowPre,
+    rowMid,
+    rowSum,
+    trace,
+    multiply,
+    kTrace,
+    response,
+    suppressRead
+  )
+  require(
+    order.head >= 0 && order.zip(order.tail).forall { case (a, b) => b > a },
+    "each step needs the previous one's registered result: node indices must strictly increase"
+  )
+  require(
+    segmentCompare >= 0 && segmentArc > segmentCompare && segmentArc <= response,
+    "the segment test compares, then combines arcs a node later, at the latest where the score is formed"
+  )
+
   /** the window column arrives `RowWindow.latency` nodes after it is read (through the RAM's output register) and is
     * registered once more before it is compared; the corner leaves one node later */
   def window: Int = suppressRead + RowWindow.latency
   def suppress: Int = window + 1
   def output: Int = suppress + 1
+
   /** clocks from a column at the input to the corner it completes at the output */
   def latency: Int = output
 }
@@ -65,15 +99,23 @@ class HarrisDetector(f: FrameConfig, h: HarrisConfig, columnRows: Int, stages: H
     for (r <- 0 until HarrisConfig.rawRows) n(COLUMN)(r) := p.column(r)
   }
 
-
   /** 1 2 1 smoothing of three values. */
-  private def w121(a: SInt, b: SInt, c: SInt, width: Int): SInt = (a.resize(width) + (b.resize(width) |<< 1)) + c.resize(width)
+  private def w121(a: SInt, b: SInt, c: SInt, width: Int): SInt =
+    (a.resize(width) + (b.resize(width) |<< 1)) + c.resize(width)
 
   /** Binomial 1 6 15 20 15 6 1 as a symmetric pre-add (at node `pre`) then shifts and adds (at node `sum`; with a
     * `mid` node, the two halves of that sum are registered there). */
-  private def binomial7(values: collection.IndexedSeq[SInt], pre: Node, sum: Node, width: Int, mid: Option[Node] = None): SInt = {
+  private def binomial7(
+      values: collection.IndexedSeq[SInt],
+      pre: Node,
+      sum: Node,
+      width: Int,
+      mid: Option[Node] = None
+  ): SInt = {
     require(values.size == 7)
-    val pairs = pre.insert(Vec(Seq((0, 6), (1, 5), (2, 4)).map { case (i, j) => values(i).resize(width) + values(j).resize(width) } :+
+    val pairs = pre.insert(Vec(Seq((0, 6), (1, 5), (2, 4)).map { case (i, j) =>
+      values(i).resize(width) + values(j).resize(width)
+    } :+
       values(3).resize(width)))
     val m = mid.getOrElse(sum)
     val Seq(a, b, c, d) = m(pairs).toSeq
@@ -104,7 +146,12 @@ class HarrisDetector(f: FrameConfig, h: HarrisConfig, columnRows: Int, stages: H
     val compareNode = at(stages.segmentCompare)
     val arcNode = at(stages.segmentArc)
     new Area {
-      val win = lastValid(Vec(compareNode(COLUMN).slice(1, 8)), 8, compareNode.isValid) // win(j)(i): column x - j, row index i + 1
+      val win =
+        lastValid(
+          Vec(compareNode(COLUMN).slice(1, 8)),
+          8,
+          compareNode.isValid
+        ) // win(j)(i): column x - j, row index i + 1
       def px(dx: Int, dy: Int): UInt = win(4 - dx)(3 - dy) // dy > 0 is down, a newer row
       // centre + t and centre - t, registered a beat ahead from the pixel that becomes the centre (the window
       // advances with valid pixels), so that no adder lies before the 32 comparisons
@@ -131,12 +178,27 @@ class HarrisDetector(f: FrameConfig, h: HarrisConfig, columnRows: Int, stages: H
   // Vertical pass of the window: exact sums over the 7 rows of one column.
   val column = new Area {
     val w = h.columnCrossWidth
-    val VXX = at(stages.columnSum).insert(binomial7(at(stages.columnPre)(products.XX), at(stages.columnPre), at(stages.columnSum), w,
-      Some(at(stages.columnMid))))
-    val VYY = at(stages.columnSum).insert(binomial7(at(stages.columnPre)(products.YY), at(stages.columnPre), at(stages.columnSum), w,
-      Some(at(stages.columnMid))))
-    val VXY = at(stages.columnSum).insert(binomial7(at(stages.columnPre)(products.XY), at(stages.columnPre), at(stages.columnSum), w,
-      Some(at(stages.columnMid))))
+    val VXX = at(stages.columnSum).insert(binomial7(
+      at(stages.columnPre)(products.XX),
+      at(stages.columnPre),
+      at(stages.columnSum),
+      w,
+      Some(at(stages.columnMid))
+    ))
+    val VYY = at(stages.columnSum).insert(binomial7(
+      at(stages.columnPre)(products.YY),
+      at(stages.columnPre),
+      at(stages.columnSum),
+      w,
+      Some(at(stages.columnMid))
+    ))
+    val VXY = at(stages.columnSum).insert(binomial7(
+      at(stages.columnPre)(products.XY),
+      at(stages.columnPre),
+      at(stages.columnSum),
+      w,
+      Some(at(stages.columnMid))
+    ))
   }
 
   // Horizontal pass over the last 7 column sums (they advance with valid pixels only), then the window shift.
@@ -146,7 +208,10 @@ class HarrisDetector(f: FrameConfig, h: HarrisConfig, columnRows: Int, stages: H
     // Rounded half up: the floor's bias of half a unit on every window sum would show in det - k tr^2.
     val half = if (h.windowShift == 0) S(0, w bits) else S(BigInt(1) << (h.windowShift - 1), w bits)
     def window(v: Payload[SInt]): SInt =
-      floorShift(binomial7(lastValid(pre(v), 7, pre.isValid), pre, at(stages.rowSum), w, Some(at(stages.rowMid))) + half, h.windowShift)
+      floorShift(
+        binomial7(lastValid(pre(v), 7, pre.isValid), pre, at(stages.rowSum), w, Some(at(stages.rowMid))) + half,
+        h.windowShift
+      )
     val SXX = at(stages.rowSum).insert(window(column.VXX).resize(h.sSquareWidth + 1).asUInt.resize(h.sSquareWidth))
     val SYY = at(stages.rowSum).insert(window(column.VYY).resize(h.sSquareWidth + 1).asUInt.resize(h.sSquareWidth))
     val SXY = at(stages.rowSum).insert(window(column.VXY).resize(h.sCrossWidth))
@@ -169,7 +234,8 @@ class HarrisDetector(f: FrameConfig, h: HarrisConfig, columnRows: Int, stages: H
   val kTraceNode = at(stages.kTrace)
   val kTrace = new kTraceNode.Area {
     // kNum * tr^2 by shifts and adds: kNum is a small constant.
-    val KTR2 = insert(floorShift(constMul(multiply.TR2, h.kNum, h.kTrace2Width + h.kShift), h.kShift).resize(h.kTrace2Width))
+    val KTR2 =
+      insert(floorShift(constMul(multiply.TR2, h.kNum, h.kTrace2Width + h.kShift), h.kShift).resize(h.kTrace2Width))
     val DET = insert(multiply.XXYY.intoSInt.resize(h.detWidth) - multiply.XY2.intoSInt.resize(h.detWidth))
   }
 
@@ -199,8 +265,12 @@ class HarrisDetector(f: FrameConfig, h: HarrisConfig, columnRows: Int, stages: H
     // (v - reach) in [border, size - 1 - border], without unsigned wrap-around for small frames.
     def inside(v: UInt, size: UInt) = v >= h.border + reach && (v +^ h.border) < (size +^ reach)
     // The comparisons are registered (into the output node) before they are combined.
-    val TESTS = n.insert(Vec(Seq(p.active, centre > control.threshold, inside(p.x, geometry.width),
-      inside(p.y, geometry.height)) ++ earlier.map(centre > _) ++ later.map(centre >= _)))
+    val TESTS = n.insert(Vec(Seq(
+      p.active,
+      centre > control.threshold,
+      inside(p.x, geometry.width),
+      inside(p.y, geometry.height)
+    ) ++ earlier.map(centre > _) ++ later.map(centre >= _)))
     val CENTRE = n.insert(centre)
     // the corner's position, the centre's, registered with the tests
     val CX = n.insert(p.x - reach)

@@ -49,7 +49,11 @@ object Json {
       case Obj(fields) if fields.forall(f => scalar(f._2)) =>
         fields.map { case (k, x) => s"${quote(k)}: ${render(x, indent + 1)}" }.mkString("{", ", ", "}")
       case Obj(fields) =>
-        fields.map { case (k, x) => s"$pad${quote(k)}: ${render(x, indent + 1)}" }.mkString("{\n", ",\n", s"\n${"  " * indent}}")
+        fields.map { case (k, x) => s"$pad${quote(k)}: ${render(x, indent + 1)}" }.mkString(
+          "{\n",
+          ",\n",
+          s"\n${"  " * indent}}"
+        )
       case m: Map[_, _] => render(Obj(m.toSeq.map { case (k, x) => k.toString -> x }), indent)
       case s: Iterable[_] if s.exists(_.isInstanceOf[Obj]) =>
         s.map(x => pad + render(x, indent + 1)).mkString("[\n", ",\n", s"\n${"  " * indent}]")

@@ -44,16 +44,21 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
     val x, y = UInt(cw bits)
     val descriptor = Bits(OrbDescriptorConfig.descriptorBits bits)
   }
+
   /** per entry: the best live feature of this frame so far */
   case class Cross() extends Bundle {
     val distance = UInt(distanceWidth bits) // `none` until a live feature has been compared
     val mutual = Bool()
     val liveX, liveY = UInt(cw bits)
   }
+
   /** entry index -> group (the RAM address of its lane), as a slice: plain Verilog without width warnings */
   def groupOf(index: UInt, width: Int): UInt = (if (P == 1) index else index(index.high downto log2Up(P))).resize(width)
   def pick[T <: Data](v: Seq[T], lane: UInt): T = if (P == 1) v.head else Vec(v)(lane.resize(log2Up(P)))
-  require(h.scoreWidth <= distanceWidth + 1 + 2 * cw, "a score must fit the cross word it borrows while a keyframe loads")
+  require(
+    h.scoreWidth <= distanceWidth + 1 + 2 * cw,
+    "a score must fit the cross word it borrows while a keyframe loads"
+  )
   def clearedCross: Cross = { val c = Cross(); c.distance := none; c.mutual := False; c.liveX := 0; c.liveY := 0; c }
 
   // The feature stream through a register at the boundary, valid and ready both registered (`halfPipe`: one item
@@ -90,12 +95,13 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
   // registered: the store only changes while a keyframe loads, long before a scan counts its groups
   val groups = RegNext(groupOf(stored +^ (P - 1), groupWidth + 1)) init 0
 
-  val lanes = for (l <- 0 until P) yield new Area {
-    val store = Mem(Entry(), m.groups)
-    // While a keyframe loads, an entry's cross state is not needed: its word holds the entry's score instead
-    // (what the replacement compares), and the keyframe's end clears them all (no RAM for the scores).
-    val cross = Mem(Cross(), m.groups)
-  }
+  val lanes =
+    for (l <- 0 until P) yield new Area {
+      val store = Mem(Entry(), m.groups)
+      // While a keyframe loads, an entry's cross state is not needed: its word holds the entry's score instead
+      // (what the replacement compares), and the keyframe's end clears them all (no RAM for the scores).
+      val cross = Mem(Cross(), m.groups)
+    }
 
   // The weakest entry of a full store (lowest score, the first on ties): the one a stronger feature replaces.
   val weakest = new Area {
@@ -142,6 +148,7 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
     def busy: Bool = activity === Activity.SCAN
     val group = Reg(UInt(groupWidth + 1 bits)) init 0
     val live = Reg(Entry())
+
     /** a group is read now (`busy` and `group < groups`), a register: whether the group read now is the last one is
       * compared a clock ahead */
     val issuing = Reg(Bool()) init False
@@ -172,12 +179,15 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
   // Waiting for the consumer, with a limit. The room is judged from the last clock's free places (at most one push
   // a clock takes one away), compared in registers, so no decision waits for the FIFO's pointers or a comparison.
   val paced = new Area {
+
     /** the entry read now is pushed `pushLatency` clocks later, after the pushes of the reads in flight and of the one
       * the last clock's free places do not show yet: with fewer free places than that, the sweep has to wait */
     val tight = RegNext(output.io.availability < pushLatency + 2) init False
+
     /** a scan's correspondence (pushed when the scan ends, with nothing else pushed meanwhile) will fit */
     val roomForItem = RegNext(output.io.availability >= 2) init True
     val waited = Reg(UInt(log2Up(m.outputTimeout + 1) bits)) init 0
+
     /** waited === outputTimeout, kept in its own register */
     val giveUp = Reg(Bool()) init False
     when(!tight) {
@@ -195,6 +205,7 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
   val sweep = new Area {
     def busy: Bool = activity === Activity.SWEEP
     val entry = Reg(UInt(countWidth bits)) init 0
+
     /** entry < stored, a register beside the entry (the store does not change during a live frame's sweep) */
     val more = Reg(Bool()) init False
     val reading = busy && more && paced.sweepRoom
@@ -212,9 +223,11 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
     }
     val lane = entry.resize(log2Up(P) max 1)
     val addr = groupOf(entry, groupWidth)
+
     /** reads whose clear has not been written yet: the next feature's scan must not read their words before */
     val drains = (1 to readLatency + 1).map(k => Delay(reading, k, init = False))
     val draining = drains.reduce(_ || _)
+
     /** `draining` in the next clock */
     val drainingNext = (reading +: drains.init).reduce(_ || _)
   }
@@ -238,13 +251,14 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
   // The read side of every lane: store and cross state, by the scan, the sweep or the rescan, every clock (a read
   // nobody asked for is ignored), through a lane's own address register and the RAMs' output registers: the data
   // come `readLatency` clocks after the address is chosen.
-  val reads = for ((lane, l) <- lanes.zipWithIndex) yield new Area {
-    // each lane's own copy (kept apart: one register would drive every RAM of the store)
-    val addr = RegNext(Mux(rescan.busy, rescan.group.resize(groupWidth), Mux(sweep.busy, sweep.addr, scan.readAddr)))
-    addr.addAttribute("preserve")
-    val entry = RegNext(lane.store.readSync(addr))
-    val cross = RegNext(lane.cross.readSync(addr))
-  }
+  val reads =
+    for ((lane, l) <- lanes.zipWithIndex) yield new Area {
+      // each lane's own copy (kept apart: one register would drive every RAM of the store)
+      val addr = RegNext(Mux(rescan.busy, rescan.group.resize(groupWidth), Mux(sweep.busy, sweep.addr, scan.readAddr)))
+      addr.addAttribute("preserve")
+      val entry = RegNext(lane.store.readSync(addr))
+      val cross = RegNext(lane.cross.readSync(addr))
+    }
 
   // The rescan's data path: the scores read through the cross port, the lowest (first on ties) of them all.
   val rescanMin = new Area {
@@ -262,7 +276,9 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
     var level: Seq[(UInt, UInt)] = scores.zipWithIndex.map { case (v, l) => (v, U(l, countWidth bits)) }
     val levels = log2Up(P) max 1
     for (_ <- 0 until levels) {
-      level = level.grouped(2).map(g => if (g.size == 1) g.head else lower(g(0), g(1))).map { case (v, l) => (RegNext(v), RegNext(l)) }.toSeq
+      level = level.grouped(2).map(g => if (g.size == 1) g.head else lower(g(0), g(1))).map { case (v, l) =>
+        (RegNext(v), RegNext(l))
+      }.toSeq
     }
     val low = level.head._1
     val index = Delay(base, levels) | level.head._2
@@ -292,45 +308,48 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
       val index = UInt(countWidth bits)
       val wins = Bool()
     }
+
     /** a lane's keyframe position: chosen a clock after its distance, by the registered choice (see `merge`) */
     case class Key() extends Bundle {
       val x, y = UInt(cw bits)
     }
-    val results = for ((r, l) <- reads.zipWithIndex) yield new Area {
-      // the lane's own copy of the live descriptor (kept apart, beside the lane's RAMs: one copy would drive all
-      // four lanes' comparisons across the chip), copied while the scan is idle as `scan.live` is, in parts, each
-      // by an enable from its own copy of the idle flag (no one flag drives every bit)
-      val partBits = item.descriptor.getWidth / MatcherConfig.liveDescriptorParts
-      val liveParts = (0 until MatcherConfig.liveDescriptorParts).map { i =>
-        val idle = RegNext(activity.getAheadValue() =/= Activity.SCAN) init True
-        idle.addAttribute("preserve")
-        val part = Reg(Bits(partBits bits))
-        part.addAttribute("preserve")
-        when(idle) {
-          part := item.descriptor(i * partBits, partBits bits)
+    val results =
+      for ((r, l) <- reads.zipWithIndex) yield new Area {
+        // the lane's own copy of the live descriptor (kept apart, beside the lane's RAMs: one copy would drive all
+        // four lanes' comparisons across the chip), copied while the scan is idle as `scan.live` is, in parts, each
+        // by an enable from its own copy of the idle flag (no one flag drives every bit)
+        val partBits = item.descriptor.getWidth / MatcherConfig.liveDescriptorParts
+        val liveParts = (0 until MatcherConfig.liveDescriptorParts).map { i =>
+          val idle = RegNext(activity.getAheadValue() =/= Activity.SCAN) init True
+          idle.addAttribute("preserve")
+          val part = Reg(Bits(partBits bits))
+          part.addAttribute("preserve")
+          when(idle) {
+            part := item.descriptor(i * partBits, partBits bits)
+          }
+          part
         }
-        part
+        val liveDescriptor = Cat(liveParts)
+        val count = MatcherConfig.popCount(r.entry.descriptor ^ liveDescriptor, m.popcountLevelsPerStage)
+        val old = Delay(r.cross, popStages)
+        val index = (group.resize(countWidth) |<< log2Up(P)) | U(l, countWidth bits)
+        val real = index < stored
+        val wins = valid && real && count < old.distance
+        // A live feature nearer than the entry's best so far takes the entry over (mutual decided when its scan ends).
+        val update = Cross(); update.distance := count; update.mutual := False
+        update.liveX := scan.live.x; update.liveY := scan.live.y
+        val out = Lane()
+        out.distance := Mux(real, count, U(none, distanceWidth bits))
+        out.index := index
+        out.wins := wins
+        val key = Key()
+        key.x := Delay(r.entry.x, popStages)
+        key.y := Delay(r.entry.y, popStages)
+        val writeUpdate = wins
       }
-      val liveDescriptor = Cat(liveParts)
-      val count = MatcherConfig.popCount(r.entry.descriptor ^ liveDescriptor, m.popcountLevelsPerStage)
-      val old = Delay(r.cross, popStages)
-      val index = (group.resize(countWidth) |<< log2Up(P)) | U(l, countWidth bits)
-      val real = index < stored
-      val wins = valid && real && count < old.distance
-      // A live feature nearer than the entry's best so far takes the entry over (mutual decided when its scan ends).
-      val update = Cross(); update.distance := count; update.mutual := False
-      update.liveX := scan.live.x; update.liveY := scan.live.y
-      val out = Lane()
-      out.distance := Mux(real, count, U(none, distanceWidth bits))
-      out.index := index
-      out.wins := wins
-      val key = Key()
-      key.x := Delay(r.entry.x, popStages)
-      key.y := Delay(r.entry.y, popStages)
-      val writeUpdate = wins
-    }
     case class Best() extends Bundle { val best = Lane(); val second = UInt(distanceWidth bits) }
     def single(l: Lane): Best = { val b = Best(); b.best := l; b.second := none; b }
+
     /** best of two (the left, earlier entries, on ties) and the second smallest distance of the union. As a best is
       * never above its second, the second is the smaller of the loser and the winner's own second: the three
       * comparisons are side by side, none waits for another. */
@@ -386,7 +405,8 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
     val a = compare.acc
     val p = frame.params
     val ratioSecond = RegNext((p.ratio * a.second).resize(distanceWidth + m.ratioFracBits + 1))
-    val ratioOk = !p.ratioTest || ((a.best.distance << m.ratioFracBits).resize(distanceWidth + m.ratioFracBits + 1) < ratioSecond)
+    val ratioOk =
+      !p.ratioTest || ((a.best.distance << m.ratioFracBits).resize(distanceWidth + m.ratioFracBits + 1) < ratioSecond)
     val accepted = done && a.best.distance <= p.hammingThreshold && ratioOk
     when(done || emptyDone) {
       activity := Activity.IDLE
@@ -440,17 +460,26 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
     val c = compare.results(l)
     val markHere = decide.mark && here(decide.markLane)
     val clearHere = swept.valid && here(swept.lane)
-    val address = Mux(scoreHere, scoreAddr, Mux(markHere, decide.markAddr, Mux(clearHere, swept.addr,
-      Mux(keyEnd.busy, keyEnd.group.resize(groupWidth), compare.group))))
-    val data = Mux(scoreHere, scoreWord, Mux(clearHere || keyEnd.busy, clearedCross, Mux(markHere, decide.markValue, c.update)))
+    val address = Mux(
+      scoreHere,
+      scoreAddr,
+      Mux(
+        markHere,
+        decide.markAddr,
+        Mux(clearHere, swept.addr, Mux(keyEnd.busy, keyEnd.group.resize(groupWidth), compare.group))
+      )
+    )
+    val data =
+      Mux(scoreHere, scoreWord, Mux(clearHere || keyEnd.busy, clearedCross, Mux(markHere, decide.markValue, c.update)))
     val enable = scoreHere || markHere || clearHere || keyEnd.busy || c.writeUpdate
     lane.cross.write(RegNext(address), RegNext(data), RegNext(enable) init False)
   }
 
   // Ready for the next item when nothing is busy: a register, computed from the next values of the flags it depends
   // on, so no decision hangs on the handshake and nothing waits for the readiness's own logic.
-  val readyNext = activity.getAheadValue() === Activity.IDLE && !sweep.drainingNext && !rescan.starting.getAheadValue() &&
-    (paced.roomForItem.getAheadValue() || paced.giveUp.getAheadValue())
+  val readyNext =
+    activity.getAheadValue() === Activity.IDLE && !sweep.drainingNext && !rescan.starting.getAheadValue() &&
+      (paced.roomForItem.getAheadValue() || paced.giveUp.getAheadValue())
   item.ready := RegNext(readyNext) init True
 
   // The correspondence registered on its way into the FIFO (the lanes' RAMs are far from it): a scan's is pushed a

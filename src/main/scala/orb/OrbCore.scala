@@ -17,6 +17,7 @@ import spinal.lib._
 class OrbCore(val cfg: OrbConfig = OrbConfig.default) extends Component {
   val io = new Bundle {
     val pixels = slave Flow (PixelBeat())
+
     /** Harris threshold and segment test */
     val cornerControl = in(CornerParamsHw())
     val corners = master Flow (CornerHw(cfg.frame, cfg.harris))
@@ -58,6 +59,7 @@ class OrbCore(val cfg: OrbConfig = OrbConfig.default) extends Component {
 }
 
 object OrbCore {
+
   /** clocks from a pixel entering to the corner it completes leaving (tracker + line buffer + detector) */
   def latency(stages: HarrisStages = HarrisStages()): Int = FrameTracker.latency + RowWindow.latency + stages.latency
 }

@@ -45,11 +45,13 @@ class OrientationUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, c
     val heights = (0 to R).map(vmax).distinct.sorted
     val pairs = RegNext(Vec((1 to R).map(v => at(v).resize(sumWidth) + at(-v).resize(sumWidth))))
     val centre = RegNext(at(0).resize(sumWidth))
-    val differences = RegNext(Vec((1 to R).map(v => at(v).intoSInt.resize(sumWidth) - at(-v).intoSInt.resize(sumWidth))))
+    val differences =
+      RegNext(Vec((1 to R).map(v => at(v).intoSInt.resize(sumWidth) - at(-v).intoSInt.resize(sumWidth))))
     // v (I(v) - I(-v)) by shifts and adds
     val weighted = RegNext(Vec((1 to R).map(v => constMulSigned(differences(v - 1), v, sumWidth))))
     val (t, tLatency) = prefixSums((centre +: pairs).map(_.asSInt), heights, sumWidth, 2)
     val (tv, tvLatency) = prefixSums(weighted, heights.map(_ - 1), sumWidth, 2)
+
     /** clocks from the column to the sums */
     val latency = 2 + tvLatency
     require(1 + tLatency <= latency)
@@ -66,7 +68,8 @@ class OrientationUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, c
     val keyframe = pixel.keyframe
     val end = pixel.end
     // compared at the input and delayed with the beat: a register, not a comparison, where it is used
-    val frameStart = Delay(io.columns.valid && io.columns.pixel.x === 0 && io.columns.pixel.y === 0, latency, init = False)
+    val frameStart =
+      Delay(io.columns.valid && io.columns.pixel.x === 0 && io.columns.pixel.y === 0, latency, init = False)
     val clock = new RowClock(f, valid && x === 0, frameStart)
   }
 
@@ -89,6 +92,7 @@ class OrientationUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, c
   // beat it waits.
   val chains = new Area {
     val taps = 2 * R + 1
+
     /** each group of `chainGroup` taps advances by its own copy of the beat's valid (kept apart) */
     val advance = (0 until (taps + chainGroup - 1) / chainGroup).map { _ =>
       val a = RegNext(sums.valid) init False
@@ -145,6 +149,7 @@ class OrientationUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, c
     val y = sums.pixelAhead.y
     val at = RegNext(y === head.lastY && x === head.lastX) init False
     val past = RegNext(y > head.lastY || (y === head.lastY && x > head.lastX)) init False
+
     /** the head is the one the comparisons were made with */
     val compared = RegNext(head.valid && !head.ready) init False
   }
@@ -156,14 +161,19 @@ class OrientationUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, c
   val faultDrop = finishHere && !sums.active
   // A new frame: what is still queued belongs to a frame that ended before its rows came.
   queue.io.flush := sums.frameStart
+
   /** the most corners one clock can drop: the queue, its buffer and two head registers flushed, the one pushed then,
     * one more */
   val dropWidth = log2Up(d.cornerQueueDepth + 4 + 4 + 1)
   // What a frame start flushes is registered first and counted in the clocks after (see `dropsNow`).
-  val queueFlushed = RegNext(Mux(sums.frameStart,
-    queue.io.occupancy.resize(dropWidth) + U(io.corners.valid).resize(dropWidth) + U(!queue.io.pop.ready).resize(dropWidth) +
+  val queueFlushed = RegNext(Mux(
+    sums.frameStart,
+    queue.io.occupancy.resize(dropWidth) + U(io.corners.valid).resize(dropWidth) + U(!queue.io.pop.ready).resize(
+      dropWidth
+    ) +
       U(popped.valid).resize(dropWidth) + U(head.valid).resize(dropWidth),
-    U(0, dropWidth bits))) init 0
+    U(0, dropWidth bits)
+  )) init 0
 
   // The finished corner, a clock after its last column's beat: m10 = sum u I = R sum T - sum j T, formed in the
   // stage after.
@@ -220,18 +230,25 @@ class OrientationUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, c
 
 object OrientationUnit {
   private val r = OrbDescriptorConfig.patchRadius
+
   /** a column's sum over its disc height: at most 2r + 1 pixels of 255 */
   val columnSumWidth: Int = log2Up((2 * r + 1) * 255 + 1)
+
   /** a column's v-weighted sum: |sum| <= 255 * (1 + .. + r), signed */
   val weightedSumWidth: Int = log2Up(255 * r * (r + 1) / 2 + 1) + 1
+
   /** the column sums' working width, signed, for both kinds */
   val sumWidth: Int = (columnSumWidth + 1) max weightedSumWidth
+
   /** sum T over a disc: 2r + 1 column sums */
   val acc1Width: Int = log2Up((2 * r + 1) * ((2 * r + 1) * 255) + 1)
+
   /** sum j T over a disc, j = 0 .. 2r */
   val acc2Width: Int = log2Up(r * (2 * r + 1) * ((2 * r + 1) * 255) + 1)
+
   /** |m10|, |m01| <= 255 * sum |u| over the disc < 2^21 */
   val momentWidth: Int = 24
+
   /** taps of the moment chains that share one copy of the beat's valid */
   val chainGroup: Int = 4
 }

@@ -20,10 +20,13 @@ case class PixelBeat() extends Bundle {
 case class TrackedPixel(c: FrameConfig) extends Bundle {
   val luma = UInt(8 bits)
   val x, y = c.coord()
+
   /** part of a processed frame, and no fault in that frame up to and including this pixel */
   val active = Bool()
+
   /** the keyframe flag of this pixel's frame (sampled at its start of frame) */
   val keyframe = Bool()
+
   /** the beat that closes the last processed frame (one beat per processed frame; its `keyframe` may already be the
     * next frame's) */
   val end = FrameEndMark()
@@ -31,6 +34,7 @@ case class TrackedPixel(c: FrameConfig) extends Bundle {
 
 case class LineColumn(f: FrameConfig, rows: Int) extends Bundle {
   val pixel = TrackedPixel(f)
+
   /** 0 = the current row */
   val column = Vec(UInt(8 bits), rows)
 }
@@ -52,11 +56,14 @@ case class OrientedCorner(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfi
   val corner = CornerHw(f, h)
   val m10, m01 = SInt(OrientationUnit.momentWidth bits)
   val bin = UInt(d.binWidth bits)
+
   /** the corner's row and frame on the stream, counted from reset (`RowClock`) */
   val rowTag = f.rowTag()
   val frameTag = f.frameTag()
+
   /** the corner's frame is a keyframe */
   val keyframe = Bool()
+
   /** not a corner: the end of a processed frame, after all of its corners */
   val end = FrameEndMark()
 }
@@ -68,8 +75,10 @@ case class FeatureHw(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
   val bin = UInt(d.binWidth bits)
   val score = UInt(h.scoreWidth bits)
   val descriptor = Bits(OrbDescriptorConfig.descriptorBits bits)
+
   /** the feature's frame is a keyframe (for a frame's end: that frame's, as `end.info.keyframe`) */
   val keyframe = Bool()
+
   /** not a feature: the end of a processed frame, after all of its features */
   val end = FrameEndMark()
 }
@@ -84,8 +93,10 @@ case class CorrespondenceHw(f: FrameConfig) extends Bundle {
 
 /** How a processed frame ended (`orb.model.FrameEnd`): the payload of a stream of frame ends. */
 case class FrameEndHw() extends Bundle {
+
   /** the frame completed without a fault */
   val ok = Bool()
+
   /** the keyframe flag sampled at that frame's start */
   val keyframe = Bool()
 }
@@ -107,11 +118,14 @@ case class FrameCountersHw(c: FrameConfig) extends Bundle {
 
 /** The corner detector's run-time parameters (`CornerParams` in the model). */
 case class CornerParamsHw() extends Bundle {
+
   /** a candidate is a corner when its score is above this */
   val threshold = UInt(32 bits)
+
   /** only pixels that pass the segment test are candidates (ignored without `HarrisConfig.segment`) */
   val segmentTest = Bool()
   val segmentThreshold = UInt(8 bits)
+
   /** the feature budget's target: features per frame */
   val target = UInt(BudgetConfig.targetWidth bits)
 }
@@ -124,16 +138,20 @@ case class MatchParamsHw(m: MatcherConfig) extends Bundle {
 }
 
 case class MatcherStatus(f: FrameConfig) extends Bundle {
+
   /** features in the store now; keyframe features beyond the capacity (all keyframes so far) */
   val stored, storeOverflow = f.counter()
+
   /** correspondences pushed to the output FIFO; those dropped because it was full */
   val matches, matchDrops = f.counter()
 }
 
 case class CoreStatus(c: FrameConfig) extends Bundle {
   val frames, badFrames, badLines, corners, features = c.counter()
+
   /** corners the feature budget did not select (`BudgetConfig`'s rule) */
   val deselected = c.counter()
+
   /** selected corners that got no descriptor: a fault in their frame before their rows were complete, or (never by
     * design, see `OrbConfig.budgetService`; only a consumer that holds the output too long) no orientation slot, a full
     * queue, no engine in time */

@@ -14,7 +14,8 @@ object QuartusProject {
     require(clockMhz > 0 && clockMhz <= 500, s"clock $clockMhz MHz")
     def file(name: String)(body: PrintWriter => Unit): File = {
       val f = new File(dir, name); val w = new PrintWriter(f)
-      try body(w) finally w.close()
+      try body(w)
+      finally w.close()
       f
     }
     val qpf = file(s"$top.qpf") { w =>

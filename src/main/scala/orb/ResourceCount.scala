@@ -13,6 +13,7 @@ object ResourceCount {
   // ---- memories ----
 
   final case class Memory(block: String, name: String, depth: Int, width: Int, rom: Boolean) {
+
     /** the M4K shapes of Cyclone II (depth x width) */
     def shapes: Seq[(Int, Int)] = Seq(4096 -> 1, 2048 -> 2, 1024 -> 4, 512 -> 9, 256 -> 18, 128 -> 36)
     def blocksFor(s: (Int, Int)): Int = ((depth + s._1 - 1) / s._1) * ((width + s._2 - 1) / s._2)
@@ -28,8 +29,13 @@ object ResourceCount {
     val out = mutable.ArrayBuffer[Memory]()
     top.walkComponents { c =>
       c.dslBody.walkDeclarations {
-        case m: Mem[_] => out += Memory(blockOf(c, blocks), s"${c.getPath().stripPrefix("toplevel/")}/${m.getName()}",
-          m.wordCount, m.width, m.initialContent != null)
+        case m: Mem[_] => out += Memory(
+            blockOf(c, blocks),
+            s"${c.getPath().stripPrefix("toplevel/")}/${m.getName()}",
+            m.wordCount,
+            m.width,
+            m.initialContent != null
+          )
         case _ =>
       }
     }
@@ -43,8 +49,10 @@ object ResourceCount {
     def +(o: Cells): Cells = Cells(luts + o.luts, carry + o.carry, ffs + o.ffs, mul18 + o.mul18, ffsAlone + o.ffsAlone)
     def -(o: Cells): Cells = Cells(luts - o.luts, carry - o.carry, ffs - o.ffs, mul18 - o.mul18, ffsAlone - o.ffsAlone)
     def *(n: Long): Cells = Cells(luts * n, carry * n, ffs * n, mul18 * n, ffsAlone * n)
+
     /** logic elements if every flip-flop packed with some used LUT (optimistic: a lower bound) */
     def lesLow: Long = (luts + carry) max ffs
+
     /** logic elements if a flip-flop packs only with the LUT or carry bit that feeds it (the estimate the report uses;
       * Cyclone II can pack an unrelated register into a used LE, so Quartus may do a little better) */
     def les: Long = luts + carry + ffsAlone
@@ -61,16 +69,17 @@ object ResourceCount {
     for (line <- text.linesIterator) line.trim match {
       case header(name) => flush(); current = name; cells = Cells(); subs = Map.empty
       case _ => line match {
-        case cell(kind, n) if current != null =>
-          val k = n.toLong
-          if (kind == "$lut") cells = cells.copy(luts = cells.luts + k)
-          else if (kind == "ORB_CARRY") cells = cells.copy(carry = cells.carry + k)
-          else if (kind == "ORB_MUL18") cells = cells.copy(mul18 = cells.mul18 + k)
-          else if (kind == "ORB_MUL9") cells = cells.copy(mul18 = cells.mul18 + 0.5 * k)
-          else if (kind.startsWith("$_DFF") || kind.startsWith("$_SDFF") || kind.startsWith("$_DLATCH")) cells = cells.copy(ffs = cells.ffs + k)
-          else if (!kind.startsWith("$")) subs = subs + (kind -> (subs.getOrElse(kind, 0L) + k))
-        case _ =>
-      }
+          case cell(kind, n) if current != null =>
+            val k = n.toLong
+            if (kind == "$lut") cells = cells.copy(luts = cells.luts + k)
+            else if (kind == "ORB_CARRY") cells = cells.copy(carry = cells.carry + k)
+            else if (kind == "ORB_MUL18") cells = cells.copy(mul18 = cells.mul18 + k)
+            else if (kind == "ORB_MUL9") cells = cells.copy(mul18 = cells.mul18 + 0.5 * k)
+            else if (kind.startsWith("$_DFF") || kind.startsWith("$_SDFF") || kind.startsWith("$_DLATCH"))
+              cells = cells.copy(ffs = cells.ffs + k)
+            else if (!kind.startsWith("$")) subs = subs + (kind -> (subs.getOrElse(kind, 0L) + k))
+          case _ =>
+        }
     }
     flush()
     modules.toMap
@@ -83,7 +92,10 @@ object ResourceCount {
   }
 
   /** Adds each module's flip-flops that take a logic element of their own. */
-  def withAlone(stat: Map[String, (Cells, Map[String, Long])], alone: Map[String, Long]): Map[String, (Cells, Map[String, Long])] =
+  def withAlone(
+      stat: Map[String, (Cells, Map[String, Long])],
+      alone: Map[String, Long]
+  ): Map[String, (Cells, Map[String, Long])] =
     stat.map { case (m, (c, subs)) => m -> (c.copy(ffsAlone = alone.getOrElse(m, 0L)), subs) }
 
   def parseAlone(text: String): Map[String, Long] =
@@ -95,15 +107,25 @@ object ResourceCount {
     for (f <- Seq("cells.v", "map_mul.v", "map_alu.v", "flow.ys", "netlist.py")) {
       val in = getClass.getResourceAsStream(s"/orb/report/$f")
       require(in != null, s"missing resource orb/report/$f")
-      val text = scala.io.Source.fromInputStream(in).mkString.replace("TOP.v", verilog.getAbsolutePath).replace("-top TOP", s"-top $top")
+      val text = scala.io.Source.fromInputStream(in).mkString.replace("TOP.v", verilog.getAbsolutePath).replace(
+        "-top TOP",
+        s"-top $top"
+      )
       Report.write(new File(work, f), text)
     }
     val log = new File(work, "yosys.log")
-    val status = try Process(Seq("yosys", "-q", "-l", log.getName, "-s", "flow.ys"), work).!(ProcessLogger(_ => ()))
-      catch { case _: java.io.IOException => throw new RuntimeException("yosys is not on the PATH (Debian: apt-get install yosys)") }
+    val status =
+      try Process(Seq("yosys", "-q", "-l", log.getName, "-s", "flow.ys"), work).!(ProcessLogger(_ => ()))
+      catch {
+        case _: java.io.IOException =>
+          throw new RuntimeException("yosys is not on the PATH (Debian: apt-get install yosys)")
+      }
     if (status != 0) throw new RuntimeException(s"yosys failed (status $status); see ${log.getPath}")
     val alone = new StringBuilder
-    val s2 = Process(Seq("python3", "netlist.py", "les", "generic.json"), work).!(ProcessLogger(l => alone ++= l + "\n", l => alone ++= l + "\n"))
+    val s2 = Process(Seq("python3", "netlist.py", "les", "generic.json"), work).!(ProcessLogger(
+      l => alone ++= l + "\n",
+      l => alone ++= l + "\n"
+    ))
     if (s2 != 0) throw new RuntimeException(s"netlist.py les failed (needs python3): $alone")
     (scala.io.Source.fromFile(new File(work, "stat.txt")).mkString, parseAlone(alone.toString))
   }

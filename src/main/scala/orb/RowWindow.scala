@@ -41,6 +41,7 @@ class RowWindow(val c: RowWindowConfig) extends Area {
 }
 
 object RowWindow {
+
   /** clocks from a pixel to its column: the RAM read and its output register */
   val latency = 2
 }

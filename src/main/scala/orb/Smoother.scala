@@ -33,7 +33,9 @@ class Smoother(f: FrameConfig, columnRows: Int) extends Component {
     val pairs = at(pre).insert(Vec(Seq((0, 6), (1, 5), (2, 4)).map { case (i, j) =>
       values(i).resize(width) + values(j).resize(width)
     } :+ values(3).resize(width)))
-    val terms = at(pre + 1).insert(Vec(at(pre + 1)(pairs).zip(blurKernel.take(4)).map { case (v, k) => constMul(v, k, width) }))
+    val terms = at(pre + 1).insert(Vec(at(pre + 1)(pairs).zip(blurKernel.take(4)).map { case (v, k) =>
+      constMul(v, k, width)
+    }))
     val t = at(pre + 2)(terms)
     val halves = at(pre + 2).insert(Vec(t(0) + t(1), t(2) + t(3)))
     at(pre + 3)(halves)(0) + at(pre + 3)(halves)(1)
@@ -59,6 +61,7 @@ class Smoother(f: FrameConfig, columnRows: Int) extends Component {
 }
 
 object Smoother {
+
   /** stages: the column sum's four steps end at `columnSum`, the row sum's at `rowSum`, then the rounding, and a
     * register to the descriptor store's write data */
   val columnSum: Int = 3

@@ -10,7 +10,10 @@ class BudgetModelSpec extends AnyFunSuite {
 
   test("score levels: each octave of the score in four equal parts") {
     assert(BudgetModel.level(0, b) == 0 && BudgetModel.level(1, b) == 0)
-    assert(BudgetModel.level(256, b) == 32 && BudgetModel.level(256 + 63, b) == 32 && BudgetModel.level(256 + 64, b) == 33)
+    assert(BudgetModel.level(256, b) == 32 && BudgetModel.level(256 + 63, b) == 32 && BudgetModel.level(
+      256 + 64,
+      b
+    ) == 33)
     assert(BudgetModel.level(511, b) == 35 && BudgetModel.level(512, b) == 36)
     val top = (1L << config.harris.scoreWidth) - 1
     assert(BudgetModel.level(top, b) == b.levels(config.harris.scoreWidth) - 1)
@@ -24,9 +27,21 @@ class BudgetModelSpec extends AnyFunSuite {
   }
 
   test("cells keep their k strongest, the first in raster order on ties") {
-    val cs = Seq(Corner(10, 1, 5), Corner(20, 1, 9), Corner(30, 2, 5), Corner(40, 3, 7), Corner(300, 0, 1), Corner(12, 4, 3))
-    assert(BudgetModel.cellWinners(cs, 2, b) == Seq(Corner(20, 1, 9), Corner(40, 3, 7), Corner(300, 0, 1), Corner(12, 4, 3)))
-    assert(BudgetModel.cellWinners(cs, 3, b) == Seq(Corner(10, 1, 5), Corner(20, 1, 9), Corner(40, 3, 7), Corner(300, 0, 1), Corner(12, 4, 3)))
+    val cs =
+      Seq(Corner(10, 1, 5), Corner(20, 1, 9), Corner(30, 2, 5), Corner(40, 3, 7), Corner(300, 0, 1), Corner(12, 4, 3))
+    assert(BudgetModel.cellWinners(cs, 2, b) == Seq(
+      Corner(20, 1, 9),
+      Corner(40, 3, 7),
+      Corner(300, 0, 1),
+      Corner(12, 4, 3)
+    ))
+    assert(BudgetModel.cellWinners(cs, 3, b) == Seq(
+      Corner(10, 1, 5),
+      Corner(20, 1, 9),
+      Corner(40, 3, 7),
+      Corner(300, 0, 1),
+      Corner(12, 4, 3)
+    ))
     assert(BudgetModel.cellWinners(cs, 0, b).isEmpty)
   }
 
@@ -61,13 +76,21 @@ class BudgetModelSpec extends AnyFunSuite {
   }
 
   test("features per frame on every photograph in data/: min(target, cell winners) from the second processed frame") {
-    val photos = new java.io.File("data").listFiles().map(_.getName).filter(n => n.endsWith(".png") && !n.contains("disp")).sorted
+    val photos =
+      new java.io.File("data").listFiles().map(_.getName).filter(n => n.endsWith(".png") && !n.contains("disp")).sorted
     val lines = for (name <- photos.toSeq) yield {
       val img = image(name)
       val core = CoreModel.run(config, Seq.fill(3)(Beat.frame(img)).flatten, cornerParams)
       val (_, second) = core.budget.last
-      val cellWinners = BudgetModel.cellWinners(HarrisModel.corners(img, config.harris, cornerParams), config.perCellFor(img.width), b).size
-      assert(second.selected.size == (b.defaultTarget min cellWinners), s"$name: ${second.selected.size} features, $cellWinners winners")
+      val cellWinners = BudgetModel.cellWinners(
+        HarrisModel.corners(img, config.harris, cornerParams),
+        config.perCellFor(img.width),
+        b
+      ).size
+      assert(
+        second.selected.size == (b.defaultTarget min cellWinners),
+        s"$name: ${second.selected.size} features, $cellWinners winners"
+      )
       f"$name ${img.width}x${img.height}: ${core.cornerCount / 2} corners, $cellWinners winners, ${second.selected.size} features"
     }
     println(lines.mkString("[orb] budget: ", "\n[orb] budget: ", ""))
@@ -78,7 +101,11 @@ class BudgetModelSpec extends AnyFunSuite {
       val (f1, f2) = (image(a), image(c))
       val core = CoreModel.run(config, (Beat.frame(f1) ++ Beat.frame(f1) ++ Beat.frame(f2)), cornerParams)
       val n = core.budget.last._2.selected.size
-      val winners = BudgetModel.cellWinners(HarrisModel.corners(f2, config.harris, cornerParams), config.perCellFor(f2.width), b).size
+      val winners = BudgetModel.cellWinners(
+        HarrisModel.corners(f2, config.harris, cornerParams),
+        config.perCellFor(f2.width),
+        b
+      ).size
       println(s"[orb] budget: $c after $a's cut: $n features ($winners winners)")
       assert(n <= b.defaultTarget && n >= 0.9 * (b.defaultTarget min winners), s"$c: $n features")
     }

@@ -7,11 +7,14 @@ class CommandLineSpec extends AnyFunSuite {
   final case class O(n: Long = 0, on: Boolean = false, files: Seq[String] = Nil)
   val opts: Seq[CommandLine.Opt[O]] = Seq(
     CommandLine.valued[O]("--n")((o, v) => o.copy(n = CommandLine.whole("--n", v, 1, 9))),
-    CommandLine.flag[O]("--on")(_.copy(on = true)))
+    CommandLine.flag[O]("--on")(_.copy(on = true))
+  )
   val files = Some((o: O, f: String) => o.copy(files = o.files :+ f))
 
   def error(args: String*)(positional: Option[(O, String) => O] = files): String =
-    CommandLine.attempt(CommandLine.parse(args, O(), opts, positional)).swap.getOrElse(fail(s"${args.mkString(" ")} parsed"))
+    CommandLine.attempt(CommandLine.parse(args, O(), opts, positional)).swap.getOrElse(
+      fail(s"${args.mkString(" ")} parsed")
+    )
 
   test("flags, values and positional arguments, in order; a later value wins") {
     assert(CommandLine.parse(Seq("a.png", "--n", "3", "--on", "b.png", "--n", "4"), O(), opts, files) ==
@@ -25,8 +28,14 @@ class CommandLineSpec extends AnyFunSuite {
     assert(error("--n", "10")() == "--n takes a whole number from 1 to 9, not '10'")
     assert(error("--n", "x")() == "--n takes a whole number from 1 to 9, not 'x'")
     assert(error("a.png")(None) == "unknown argument 'a.png' (see --help)")
-    assert(CommandLine.attempt(CommandLine.positive("--seeds", "0")) == Left("--seeds takes a positive whole number, not '0'"))
-    assert(CommandLine.attempt(CommandLine.choice("--engine", "fpga", Seq("model", "rtl"))) == Left("--engine is model or rtl, not 'fpga'"))
-    assert(CommandLine.attempt(CommandLine.preset("nope")).left.exists(_.startsWith("unknown --config 'nope' (known: ")))
+    assert(CommandLine.attempt(CommandLine.positive("--seeds", "0")) == Left(
+      "--seeds takes a positive whole number, not '0'"
+    ))
+    assert(CommandLine.attempt(CommandLine.choice("--engine", "fpga", Seq("model", "rtl"))) == Left(
+      "--engine is model or rtl, not 'fpga'"
+    ))
+    assert(
+      CommandLine.attempt(CommandLine.preset("nope")).left.exists(_.startsWith("unknown --config 'nope' (known: "))
+    )
   }
 }

@@ -34,18 +34,28 @@ class DescriptorPlannerSpec extends AnyFunSuite {
 
   test("the model's schedule never reads a bank port twice in a clock, on the pattern and on random groups") {
     val r = rng("schedule")
-    val groups = (for (bin <- 0 until d.angleBins by 3; base <- 0 until d.smoothedRows by 4)
-      yield DescriptorSchedule.groupPoints(bin, base, d)).flatten ++ Seq.fill(20000)(randomGroup(r, 1 + r.nextInt(banks)))
+    val groups =
+      (for (bin <- 0 until d.angleBins by 3; base <- 0 until d.smoothedRows by 4)
+        yield DescriptorSchedule.groupPoints(bin, base, d)).flatten ++ Seq.fill(20000)(randomGroup(
+        r,
+        1 + r.nextInt(banks)
+      ))
     for (g <- groups) {
       val p = DescriptorSchedule.plan(g)
       val bad = conflicts(g, p)
       assert(bad.isEmpty, s"$g -> $p: ${bad.mkString("; ")}")
       assert(p.issues >= 1 && p.issues <= pointsPerGroup)
     }
-    val clocks = for (bin <- 0 until d.angleBins by 7; base <- 0 until d.smoothedRows) yield DescriptorSchedule.issueClocks(bin, base, d)
-    println(f"[orb] schedule: ${clocks.sum.toDouble / clocks.size}%.1f clocks of reads per descriptor on average, " +
-      s"${clocks.min} to ${clocks.max} (sampled); at most ${DescriptorSchedule.maxIssueClocks(d)} over every bin and ring position")
-    assert(DescriptorSchedule.maxIssueClocks(d) <= 2 * DescriptorSchedule.groups, "the schedule's worst case is the two-clocks-a-group bound")
+    val clocks = for (bin <- 0 until d.angleBins by 7; base <- 0 until d.smoothedRows)
+      yield DescriptorSchedule.issueClocks(bin, base, d)
+    println(
+      f"[orb] schedule: ${clocks.sum.toDouble / clocks.size}%.1f clocks of reads per descriptor on average, " +
+        s"${clocks.min} to ${clocks.max} (sampled); at most ${DescriptorSchedule.maxIssueClocks(d)} over every bin and ring position"
+    )
+    assert(
+      DescriptorSchedule.maxIssueClocks(d) <= 2 * DescriptorSchedule.groups,
+      "the schedule's worst case is the two-clocks-a-group bound"
+    )
   }
 
   lazy val planner = SimConfig.withConfig(Generate.spinalConfig("simWorkspace/planner/rtl").includeSimulation)
@@ -53,8 +63,12 @@ class DescriptorPlannerSpec extends AnyFunSuite {
 
   test("GroupPlanner == DescriptorSchedule.plan: every bin's groups at several ring positions, random groups") {
     val r = rng("planner")
-    val vectors = (for (bin <- 0 until d.angleBins; base <- Seq(0, 1, d.smoothedRows - 1))
-      yield DescriptorSchedule.groupPoints(bin, base, d)).flatten ++ Seq.fill(30000)(randomGroup(r, 1 + r.nextInt(banks)))
+    val vectors =
+      (for (bin <- 0 until d.angleBins; base <- Seq(0, 1, d.smoothedRows - 1))
+        yield DescriptorSchedule.groupPoints(bin, base, d)).flatten ++ Seq.fill(30000)(randomGroup(
+        r,
+        1 + r.nextInt(banks)
+      ))
     planner.doSim("planner", seed.toInt) { dut =>
       dut.io.advance #= true
       for (p <- dut.io.points) {
@@ -72,7 +86,11 @@ class DescriptorPlannerSpec extends AnyFunSuite {
         dut.clockDomain.waitSampling()
         if (n >= lag) {
           val expected = DescriptorSchedule.plan(vectors(n - lag))
-          val got = Plan(dut.io.plan.issue.map(_.toInt).toIndexedSeq, dut.io.plan.lane.map(_.toInt).toIndexedSeq, dut.io.plan.issues.toInt)
+          val got = Plan(
+            dut.io.plan.issue.map(_.toInt).toIndexedSeq,
+            dut.io.plan.lane.map(_.toInt).toIndexedSeq,
+            dut.io.plan.issues.toInt
+          )
           assert(got == expected, s"group ${n - lag}: ${vectors(n - lag)}: model $expected, RTL $got")
         }
       }

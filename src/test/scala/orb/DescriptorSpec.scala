@@ -13,7 +13,13 @@ class DescriptorSpec extends AnyFunSuite {
 
   /** Every feature of the last frame, as the model computes it with the feature budget (a run of `frames` copies,
     * the first teaching the geometry); no corner without its descriptor. */
-  def check(name: String, img: GrayImage, blanking: Blanking, p: CornerParams = cornerParams, frames: Int = 2): RtlResult = {
+  def check(
+      name: String,
+      img: GrayImage,
+      blanking: Blanking,
+      p: CornerParams = cornerParams,
+      frames: Int = 2
+  ): RtlResult = {
     val beats = Seq.fill(frames)(Beat.frame(img)).flatten
     val model = CoreModel.run(config, beats, p)
     val expected = model.features
@@ -24,15 +30,22 @@ class DescriptorSpec extends AnyFunSuite {
     if (diffs.nonEmpty) {
       val dir = Scoreboard.dumpFeatures(name, expected, got, Some(img))
       fail(s"$name: ${diffs.size} differ (model ${expected.size}, RTL ${got.size}, drops ${rtl.featureDrops}); first " +
-        diffs.take(2).map { case ((a, b), i) => s"#$i model ${show(a)} RTL ${show(b)}" }.mkString("; ") + s"; dumped to $dir")
+        diffs.take(2).map { case ((a, b), i) => s"#$i model ${show(a)} RTL ${show(b)}" }.mkString(
+          "; "
+        ) + s"; dumped to $dir")
     }
     assert(rtl.featureDrops == 0, s"$name: ${rtl.featureDrops} selected corners got no descriptor")
     val off = engineOffSchedule(rtl)
-    assert(rtl.engineRuns.size == got.size && off.isEmpty, s"$name: the engine's clocks differ from its schedule: ${off.take(3).mkString("; ")}")
+    assert(
+      rtl.engineRuns.size == got.size && off.isEmpty,
+      s"$name: the engine's clocks differ from its schedule: ${off.take(3).mkString("; ")}"
+    )
     val overlapped = rtl.engineRuns.count(_.overlapped)
     assert(rtl.deselected == model.deselected, s"$name: deselected corners")
-    println(f"[orb] descriptors $name%-34s ${if (p.segmentThreshold.isEmpty) "Harris maxima" else "segment test "} " +
-      f"${img.width}x${img.height}: ${model.cornerCount}%6d corners, ${got.size}%5d features equal to the model ($overlapped%4d started behind the one before), ${rtl.deselected}%6d deselected")
+    println(
+      f"[orb] descriptors $name%-34s ${if (p.segmentThreshold.isEmpty) "Harris maxima" else "segment test "} " +
+        f"${img.width}x${img.height}: ${model.cornerCount}%6d corners, ${got.size}%5d features equal to the model ($overlapped%4d started behind the one before), ${rtl.deselected}%6d deselected"
+    )
     rtl
   }
 
@@ -40,6 +53,7 @@ class DescriptorSpec extends AnyFunSuite {
     check("feat-boxes", Patterns.boxes(120, 90, rng("feat"), n = 20), Blanking.random)
     check("feat-graf1", image("graf1.png").crop(100, 100, 320, 200), Blanking.camera)
   }
+
   /** The photographs (not the disparity map). */
   lazy val photos: Seq[String] = Option(new java.io.File("data").listFiles()).toSeq.flatten.map(_.getName)
     .filter(n => n.endsWith(".png") && !n.contains("disp")).sorted
@@ -47,10 +61,17 @@ class DescriptorSpec extends AnyFunSuite {
     assert(photos.size >= 14)
     val runs = photos.flatMap(name => check(s"feat-$name", image(name), Blanking.none).engineRuns)
     // dense photographs keep the engine busy: corners start behind the one before (the overlap the bound counts on)
-    assert(runs.count(_.overlapped) > runs.size / 4, s"${runs.count(_.overlapped)} of ${runs.size} corners started behind another")
+    assert(
+      runs.count(_.overlapped) > runs.size / 4,
+      s"${runs.count(_.overlapped)} of ${runs.size} corners started behind another"
+    )
   }
   test("a 1024-px-wide photograph, every candidate a corner (threshold 0), no blanking, with the frame's cut") {
-    val rtl = check("feat-aloe-all", image("aloeL_crop1024.png"), Blanking.none, cornerParams.copy(threshold = 0), frames = 3)
-    assert(rtl.corners.size > 10000 && rtl.features.size == 2 * config.budget.defaultTarget, s"${rtl.corners.size} corners, ${rtl.features.size} features")
+    val rtl =
+      check("feat-aloe-all", image("aloeL_crop1024.png"), Blanking.none, cornerParams.copy(threshold = 0), frames = 3)
+    assert(
+      rtl.corners.size > 10000 && rtl.features.size == 2 * config.budget.defaultTarget,
+      s"${rtl.corners.size} corners, ${rtl.features.size} features"
+    )
   }
 }

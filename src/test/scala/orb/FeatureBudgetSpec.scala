@@ -11,21 +11,36 @@ class FeatureBudgetSpec extends AnyFunSuite {
   import TestSupport._
 
   /** RTL against the model over a run of frames: corners, feature stream, counters; no drop of any kind. */
-  def check(name: String, frames: Seq[GrayImage], p: CornerParams = cornerParams, blanking: Blanking = Blanking.none): (CoreResult, RtlResult) = {
+  def check(
+      name: String,
+      frames: Seq[GrayImage],
+      p: CornerParams = cornerParams,
+      blanking: Blanking = Blanking.none
+  ): (CoreResult, RtlResult) = {
     val beats = frames.flatMap(Beat.frame(_))
     val model = CoreModel.run(config, beats, p)
     var rtl: RtlResult = null
     core.doSim(name, seed.toInt) { dut => rtl = CoreSim.run(dut, beats, p, blanking, rng(name).nextLong()) }
     Scoreboard.compare(name, CoreEvents.of(model), rtl.events, frames.lastOption).foreach(msg => fail(msg))
-    Scoreboard.compareFeatureStreams(name, model.featureStream, rtl.featureStream, frames.lastOption).foreach(msg => fail(msg))
-    assert(rtl.deselected == model.deselected, s"$name: deselected corners (RTL ${rtl.deselected}, model ${model.deselected})")
-    assert(rtl.featureDrops == 0 && model.featureDrops == 0, s"$name: ${rtl.featureDrops} selected corners got no feature")
+    Scoreboard.compareFeatureStreams(name, model.featureStream, rtl.featureStream, frames.lastOption).foreach(msg =>
+      fail(msg)
+    )
+    assert(
+      rtl.deselected == model.deselected,
+      s"$name: deselected corners (RTL ${rtl.deselected}, model ${model.deselected})"
+    )
+    assert(
+      rtl.featureDrops == 0 && model.featureDrops == 0,
+      s"$name: ${rtl.featureDrops} selected corners got no feature"
+    )
     assert(rtl.features.size + rtl.deselected == rtl.corners.size, s"$name: every corner is a feature or deselected")
     val off = engineOffSchedule(rtl)
     assert(off.isEmpty, s"$name: the engine's clocks differ from its schedule: ${off.take(3).mkString("; ")}")
-    println(f"[orb] $name%-30s ${frames.size} frames ${frames.head.width}x${frames.head.height}: ${rtl.corners.size} corners, " +
-      s"${rtl.deselected} deselected, ${rtl.features.size} features (${model.budget.map(_._2.selected.size).mkString(", ")} per frame, " +
-      s"${rtl.engineRuns.count(_.overlapped)} started behind the one before), ${rtl.cycles} clocks")
+    println(
+      f"[orb] $name%-30s ${frames.size} frames ${frames.head.width}x${frames.head.height}: ${rtl.corners.size} corners, " +
+        s"${rtl.deselected} deselected, ${rtl.features.size} features (${model.budget.map(_._2.selected.size).mkString(", ")} per frame, " +
+        s"${rtl.engineRuns.count(_.overlapped)} started behind the one before), ${rtl.cycles} clocks"
+    )
     (model, rtl)
   }
 
@@ -69,7 +84,10 @@ class FeatureBudgetSpec extends AnyFunSuite {
       val img = image(name)
       val (model, _) = check(s"budget-$name", Seq.fill(3)(img))
       assert(model.deselected > model.features.size, s"$name: the budget deselects most corners of a dense texture")
-      assert(model.budget.last._2.selected.size == config.budget.defaultTarget, s"$name: the target in its second frame")
+      assert(
+        model.budget.last._2.selected.size == config.budget.defaultTarget,
+        s"$name: the target in its second frame"
+      )
     }
   }
 }

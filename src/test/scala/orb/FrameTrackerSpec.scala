@@ -29,10 +29,10 @@ class FrameTrackerSpec extends AnyFunSuite {
         val i = r.nextInt(frame.size)
         frame = r.nextInt(5) match {
           case 0 => frame.updated(i, frame(i).copy(eol = !frame(i).eol)) // a missing or extra end of line
-          case 1 => frame.take(i)                                        // cut short by the next start of frame
-          case 2 => frame ++ frame.takeRight(w)                          // one line too many
+          case 1 => frame.take(i) // cut short by the next start of frame
+          case 2 => frame ++ frame.takeRight(w) // one line too many
           case 3 => frame.patch(i, Seq.fill(1 + r.nextInt(20))(Beat(7, sof = false, eol = false)), 0) // a long line
-          case _ => frame.patch(i, Nil, 1 + r.nextInt(3))                // pixels lost
+          case _ => frame.patch(i, Nil, 1 + r.nextInt(3)) // pixels lost
         }
       }
       if (r.nextDouble() < 0.03) out ++= Seq.fill(r.nextInt(10))(Beat(1, sof = false, eol = r.nextBoolean())) // junk
@@ -55,13 +55,18 @@ class FrameTrackerSpec extends AnyFunSuite {
         dut.clockDomain.onSamplings {
           val t = dut.io.tracked
           if (t.valid.toBoolean) {
-            val end = if (t.end.now.toBoolean) Some(FrameEnd(t.end.info.ok.toBoolean, t.end.info.keyframe.toBoolean)) else None
+            val end =
+              if (t.end.now.toBoolean) Some(FrameEnd(t.end.info.ok.toBoolean, t.end.info.keyframe.toBoolean)) else None
             got += TrackedBeat(t.luma.toInt, t.x.toInt, t.y.toInt, t.active.toBoolean, end)
           }
         }
         orb.testbench.CoreSim.drivePixels(dut.io.pixels, dut.clockDomain, beats, orb.testbench.Blanking.random, r)
         dut.clockDomain.waitSampling(3)
-        counters = FrameCounters(dut.io.counters.frames.toLong, dut.io.counters.badFrames.toLong, dut.io.counters.badLines.toLong)
+        counters = FrameCounters(
+          dut.io.counters.frames.toLong,
+          dut.io.counters.badFrames.toLong,
+          dut.io.counters.badLines.toLong
+        )
       }
       orb.testbench.Scoreboard.describe(s"run $run", "tracked beats", expected, got.toSeq).foreach(msg => fail(msg))
       assert(counters == model.stats, s"run $run: counters")

@@ -41,10 +41,14 @@ class HarrisModelSpec extends AnyFunSuite {
     set(8, 20, 40); set(9, 20, 41) // a stronger neighbour wins
     val corners = HarrisModel.suppress(new HarrisModel.Plane(30, 30, s), threshold = 10, border = 5)
     assert(corners == Seq(Corner(12, 12, 50), Corner(9, 20, 41), Corner(20, 20, 70)))
-    assert(HarrisModel.suppress(new HarrisModel.Plane(30, 30, s), threshold = 50, border = 5) == Seq(Corner(20, 20, 70)),
-      "the threshold is strict")
-    assert(HarrisModel.suppress(new HarrisModel.Plane(30, 30, s), threshold = 10, border = 13).isEmpty,
-      "nothing closer than the border")
+    assert(
+      HarrisModel.suppress(new HarrisModel.Plane(30, 30, s), threshold = 50, border = 5) == Seq(Corner(20, 20, 70)),
+      "the threshold is strict"
+    )
+    assert(
+      HarrisModel.suppress(new HarrisModel.Plane(30, 30, s), threshold = 10, border = 13).isEmpty,
+      "nothing closer than the border"
+    )
   }
 
   test("an ideal corner is found where it is, and its score grows with the 4th power of the contrast") {
@@ -59,6 +63,7 @@ class HarrisModelSpec extends AnyFunSuite {
 
   test("segment test: 9 contiguous circle pixels strictly beyond centre +- t, around the wrap of the circle") {
     val ring = SegmentTestConfig.circle
+
     /** A 9x9 image with centre 100 and circle pixel i set to level(i). */
     def probe(level: Int => Int): GrayImage = {
       val px = Array.fill(81)(100)
@@ -93,7 +98,8 @@ class HarrisModelSpec extends AnyFunSuite {
     val first = Beat.frame(img).flatMap(t.step)
     assert(first.size == 120 && first.forall(!_.active))
     val second = Beat.frame(img).flatMap(t.step)
-    assert(second.forall(_.active) && second.map(b => (b.x, b.y)) == (for (y <- 0 until 6; x <- 0 until 20) yield (x, y)))
+    assert(second.forall(_.active) && second.map(b => (b.x, b.y)) == (for (y <- 0 until 6; x <- 0 until 20)
+      yield (x, y)))
     assert(second.count(_.end.isDefined) == 1 && second.last.end.exists(_.ok))
     assert(t.stats == FrameCounters(frames = 2))
   }

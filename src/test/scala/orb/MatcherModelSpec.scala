@@ -6,12 +6,16 @@ import org.scalatest.funsuite.AnyFunSuite
 /** The matcher model's semantics on hand-made descriptors. */
 class MatcherModelSpec extends AnyFunSuite {
   val cfg: MatcherConfig = MatcherConfig(storeCapacity = 3, comparators = 1)
+
   /** A feature whose descriptor has its first `ones` bits set. */
   def feat(x: Int, ones: Int, score: Long = 0): Feature =
     Feature(x, 0, 0, score, Vector.tabulate(32)(b => ((0 until 8).filter(i => b * 8 + i < ones).map(1 << _)).sum))
 
   test("store keeps the strongest N of the keyframe (the earliest of equal scores) and counts the rest") {
-    val s = MatcherModel.store(Seq(feat(1, 0, 5), feat(2, 10, 9), feat(3, 20, 5), feat(4, 30, 7), feat(5, 0, 5), feat(6, 0, 6)), cfg)
+    val s = MatcherModel.store(
+      Seq(feat(1, 0, 5), feat(2, 10, 9), feat(3, 20, 5), feat(4, 30, 7), feat(5, 0, 5), feat(6, 0, 6)),
+      cfg
+    )
     // 4 (score 7) replaces 1, the first of the two weakest (5); 5 (score 5) is not stronger; 6 (score 6) replaces 3
     assert(s.features.map(_.x) == Seq(4, 2, 6) && s.overflow == 3)
   }
@@ -23,14 +27,20 @@ class MatcherModelSpec extends AnyFunSuite {
     assert(MatcherModel.matchFrame(s, Seq(feat(9, 12)), p, cfg).isEmpty, "a tie fails the ratio test")
     assert(MatcherModel.matchFrame(s, Seq(feat(9, 38)), p, cfg) == Seq(Correspondence(9, 0, 3, 0, 2)))
     assert(MatcherModel.matchFrame(s, Seq(feat(9, 38)), p.copy(hammingThreshold = 1), cfg).isEmpty)
-    assert(MatcherModel.matchFrame(s, Seq(feat(9, 38)), p.copy(ratio = Some(18)), cfg).isEmpty, "2 * 256 < 18 * 28 fails")
+    assert(
+      MatcherModel.matchFrame(s, Seq(feat(9, 38)), p.copy(ratio = Some(18)), cfg).isEmpty,
+      "2 * 256 < 18 * 28 fails"
+    )
   }
   test("cross-check keeps mutual nearest neighbours only") {
     val s = MatcherModel.store(Seq(feat(1, 10), feat(2, 100)), cfg)
     val live = Seq(feat(7, 11), feat(8, 12), feat(9, 99))
     val p = MatchParams(hammingThreshold = 256, crossCheck = true, ratio = None)
     // live 8 prefers entry 1 but entry 1 prefers live 7
-    assert(MatcherModel.matchFrame(s, live, p, cfg) == Seq(Correspondence(7, 0, 1, 0, 1), Correspondence(9, 0, 2, 0, 1)))
+    assert(MatcherModel.matchFrame(s, live, p, cfg) == Seq(
+      Correspondence(7, 0, 1, 0, 1),
+      Correspondence(9, 0, 2, 0, 1)
+    ))
     assert(MatcherModel.matchFrame(s, live, p.copy(crossCheck = false), cfg).size == 3)
   }
 }

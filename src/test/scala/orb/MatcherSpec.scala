@@ -11,7 +11,13 @@ import scala.collection.mutable.ArrayBuffer
 import scala.util.Random
 
 /** What the matcher harness saw: correspondences taken by the consumer, and the status counters at the end. */
-final case class RtlMatches(correspondences: Seq[Correspondence], stored: Long, overflow: Long, matches: Long, drops: Long)
+final case class RtlMatches(
+    correspondences: Seq[Correspondence],
+    stored: Long,
+    overflow: Long,
+    matches: Long,
+    drops: Long
+)
 
 /** The matcher alone (a 16-entry store, 4 comparators, an 8-deep output FIFO) against `MatcherModel`, on
   * hand-made feature streams: store overflow, thresholds, ratio test, cross-check, ties, empty stores, a slow
@@ -27,7 +33,13 @@ class MatcherSpec extends AnyFunSuite {
 
   /** Drives `stream` (features and frame ends) with random gaps; the consumer is ready with probability `ready`
     * (1: always) and, if `stallFor` > 0, not at all for that many clocks after the first frame end. */
-  def runRtl(name: String, stream: Seq[Either[FrameEnd, Feature]], p: MatchParams, ready: Double, stallFor: Int = 0): RtlMatches = {
+  def runRtl(
+      name: String,
+      stream: Seq[Either[FrameEnd, Feature]],
+      p: MatchParams,
+      ready: Double,
+      stallFor: Int = 0
+  ): RtlMatches = {
     var out: RtlMatches = null
     matcher.doSim(name, seed.toInt) { dut =>
       val r0 = rng(name)
@@ -46,10 +58,12 @@ class MatcherSpec extends AnyFunSuite {
         val c = dut.io.correspondences
         if (c.valid.toBoolean && c.ready.toBoolean)
           got += Correspondence(c.liveX.toInt, c.liveY.toInt, c.keyX.toInt, c.keyY.toInt, c.distance.toInt)
-        val r = if (stallLeft > 0) { stallLeft -= 1; false } else ready >= 1 || r0.nextDouble() < ready
+        val r = if (stallLeft > 0) { stallLeft -= 1; false }
+        else ready >= 1 || r0.nextDouble() < ready
         c.ready #= r
       }
-      val keyFlags = stream.indices.map(i => stream.drop(i).collectFirst { case Left(e) => e.keyframe }.getOrElse(false))
+      val keyFlags =
+        stream.indices.map(i => stream.drop(i).collectFirst { case Left(e) => e.keyframe }.getOrElse(false))
       for ((item, i) <- stream.zipWithIndex) {
         while (r0.nextInt(4) == 0) dut.clockDomain.waitSampling()
         in.valid #= true
@@ -70,7 +84,9 @@ class MatcherSpec extends AnyFunSuite {
       val s = dut.io.status
       var waited = 0
       val bound = 200 * (m.clocksPerFeature + m.storeCapacity + 4 * m.outputDepth) + stallFor
-      while (waited < bound && (s.matches.toLong != got.size || waited < m.clocksPerFeature + m.storeCapacity + stallFor)) {
+      while (
+        waited < bound && (s.matches.toLong != got.size || waited < m.clocksPerFeature + m.storeCapacity + stallFor)
+      ) {
         dut.clockDomain.waitSampling(); waited += 1
       }
       dut.clockDomain.waitSampling(m.clocksPerFeature + 4 * m.outputDepth)
@@ -81,12 +97,21 @@ class MatcherSpec extends AnyFunSuite {
 
   /** A keyframe of `nKey` random descriptors (a quarter of them repeated: ties between entries), then live
     * frames mixing noisy copies (0..40 bits flipped), exact copies (ties between live features) and unrelated ones. */
-  def scenario(rng: Random, nKey: Int, liveFrames: Int, nLive: Int, keyAgainAt: Int = -1): Seq[Either[FrameEnd, Feature]] = {
+  def scenario(
+      rng: Random,
+      nKey: Int,
+      liveFrames: Int,
+      nLive: Int,
+      keyAgainAt: Int = -1
+  ): Seq[Either[FrameEnd, Feature]] = {
     def randomDesc = Vector.fill(32)(rng.nextInt(256))
-    def feature(d: Vector[Int]) = Feature(rng.nextInt(128), rng.nextInt(128), rng.nextInt(512), 1000L * rng.nextInt(8), d) // scores tie often
+    def feature(d: Vector[Int]) =
+      Feature(rng.nextInt(128), rng.nextInt(128), rng.nextInt(512), 1000L * rng.nextInt(8), d) // scores tie often
     val out = ArrayBuffer[Either[FrameEnd, Feature]]()
     // A quarter of the keyframe repeats earlier descriptors: ties between entries.
-    def keyframe(n: Int) = { val base = Vector.fill(n - n / 4)(randomDesc); base ++ Vector.fill(n / 4)(base(rng.nextInt(base.size))) }
+    def keyframe(n: Int) = {
+      val base = Vector.fill(n - n / 4)(randomDesc); base ++ Vector.fill(n / 4)(base(rng.nextInt(base.size)))
+    }
     var key = keyframe(nKey)
     out ++= key.map(d => Right(feature(d))); out += Left(FrameEnd(ok = true, keyframe = true))
     for (frame <- 0 until liveFrames) {
@@ -98,7 +123,9 @@ class MatcherSpec extends AnyFunSuite {
         val d = if (key.nonEmpty && rng.nextInt(5) != 0) {
           val k = key(rng.nextInt(key.size))
           val flips = if (rng.nextInt(4) == 0) 0 else rng.nextInt(40)
-          (0 until flips).foldLeft(k) { (v, _) => val b = rng.nextInt(256); v.updated(b / 8, v(b / 8) ^ (1 << (b % 8))) }
+          (0 until flips).foldLeft(k) { (v, _) =>
+            val b = rng.nextInt(256); v.updated(b / 8, v(b / 8) ^ (1 << (b % 8)))
+          }
         } else randomDesc
         out += Right(feature(d))
       }
@@ -107,7 +134,13 @@ class MatcherSpec extends AnyFunSuite {
     out.toSeq
   }
 
-  def check(name: String, stream: Seq[Either[FrameEnd, Feature]], p: MatchParams, ready: Double = 1.0, stallFor: Int = 0): (MatcherModel.Run, RtlMatches) = {
+  def check(
+      name: String,
+      stream: Seq[Either[FrameEnd, Feature]],
+      p: MatchParams,
+      ready: Double = 1.0,
+      stallFor: Int = 0
+  ): (MatcherModel.Run, RtlMatches) = {
     val model = MatcherModel.run(stream, p, m)
     val rtl = runRtl(name, stream, p, ready, stallFor)
     val expected = model.correspondences
@@ -118,7 +151,9 @@ class MatcherSpec extends AnyFunSuite {
       Scoreboard.compareCorrespondences(name, expected, rtl.correspondences).foreach(msg => fail(msg))
     } else {
       // Drops: what arrived is the model's sequence with some left out, and every one left out is counted.
-      Scoreboard.notAnOrderedSubset(expected, rtl.correspondences).foreach(c => fail(s"$name: $c is not the model's next"))
+      Scoreboard.notAnOrderedSubset(expected, rtl.correspondences).foreach(c =>
+        fail(s"$name: $c is not the model's next")
+      )
       assert(rtl.drops == expected.size - rtl.correspondences.size, s"$name: drops counted")
     }
     println(f"[orb] $name%-36s ${expected.size} expected, ${rtl.correspondences.size} received, ${rtl.drops} dropped")
@@ -131,21 +166,31 @@ class MatcherSpec extends AnyFunSuite {
     assert(model.correspondences.nonEmpty)
   }
   test("ratio test, against the brute-force model") {
-    val (model, _) = check("ratio", scenario(rng("ratio"), 16, 3, 20), MatchParams(hammingThreshold = 128, ratio = Some(205), crossCheck = false))
+    val (model, _) = check(
+      "ratio",
+      scenario(rng("ratio"), 16, 3, 20),
+      MatchParams(hammingThreshold = 128, ratio = Some(205), crossCheck = false)
+    )
     assert(model.correspondences.nonEmpty)
   }
   test("cross-check: mutual pairs at the frame end, in keyframe order") {
     val stream = scenario(rng("cross"), 16, 3, 24)
     val (model, _) = check("cross-check", stream, MatchParams(hammingThreshold = 100, crossCheck = true, ratio = None))
-    val plainCount = MatcherModel.run(stream, MatchParams(hammingThreshold = 100, ratio = None, crossCheck = false), m).correspondences.size
-    assert(model.correspondences.nonEmpty && model.correspondences.size < plainCount, "the scenario exercises the check")
+    val plainCount =
+      MatcherModel.run(stream, MatchParams(hammingThreshold = 100, ratio = None, crossCheck = false), m).correspondences.size
+    assert(
+      model.correspondences.nonEmpty && model.correspondences.size < plainCount,
+      "the scenario exercises the check"
+    )
   }
   test("cross-check with the ratio test and a threshold of 0 and 256") {
     val stream = scenario(rng("both"), 12, 2, 16)
     check("cross+ratio", stream, MatchParams(hammingThreshold = 256, ratio = Some(230), crossCheck = true))
     check("threshold 0", stream, MatchParams(hammingThreshold = 0, crossCheck = true, ratio = None))
   }
-  test("store overflow: the strongest 16 are kept (the earliest of equal scores), the rest counted; a new keyframe replaces the store") {
+  test(
+    "store overflow: the strongest 16 are kept (the earliest of equal scores), the rest counted; a new keyframe replaces the store"
+  ) {
     // Cross-check emits in store order, so the content and the order of the store are both visible.
     val stream = scenario(rng("overflow"), 40, 3, 24, keyAgainAt = 1)
     val (model, _) = check("overflow", stream, MatchParams(hammingThreshold = 100, crossCheck = true, ratio = None))
@@ -162,13 +207,23 @@ class MatcherSpec extends AnyFunSuite {
       val live = key.map(k => k.copy(x = k.x + 100, y = 5))
       val stream = key.map(Right(_)) ++ Seq(Left(FrameEnd(ok = true, keyframe = true))) ++ live.map(Right(_)) ++
         Seq(Left(FrameEnd(ok = true, keyframe = false)))
-      val (model, _) = check(s"replacement, weakest in $name", stream, MatchParams(hammingThreshold = 10, crossCheck = true, ratio = None))
-      assert(model.store.features.map(_.x) == (0 until 16).map(i => if (weakAt.take(3).contains(i)) 16 + weakAt.indexOf(i) else i))
+      val (model, _) = check(
+        s"replacement, weakest in $name",
+        stream,
+        MatchParams(hammingThreshold = 10, crossCheck = true, ratio = None)
+      )
+      assert(model.store.features.map(_.x) == (0 until 16).map(i =>
+        if (weakAt.take(3).contains(i)) 16 + weakAt.indexOf(i) else i
+      ))
     }
   }
   test("empty store: no correspondence, no hang; a single entry has no second best") {
     val rng0 = rng("empty")
-    check("single entry", scenario(rng0, 1, 2, 6), MatchParams(hammingThreshold = 256, ratio = Some(511), crossCheck = false))
+    check(
+      "single entry",
+      scenario(rng0, 1, 2, 6),
+      MatchParams(hammingThreshold = 256, ratio = Some(511), crossCheck = false)
+    )
     val noKey = scenario(rng0, 0, 2, 6)
     val (model, _) = check("empty store", noKey, plain)
     assert(model.correspondences.isEmpty)
@@ -176,9 +231,19 @@ class MatcherSpec extends AnyFunSuite {
   test("a slow consumer loses nothing; a stalled one gets counted drops after the timeout, and no hang") {
     val stream = scenario(rng("stall"), 16, 4, 30)
     for (cross <- Seq(false, true)) {
-      val (_, slow) = check(s"slow consumer, cross-check $cross", stream, MatchParams(hammingThreshold = 100, crossCheck = cross, ratio = None), ready = 0.1)
+      val (_, slow) = check(
+        s"slow consumer, cross-check $cross",
+        stream,
+        MatchParams(hammingThreshold = 100, crossCheck = cross, ratio = None),
+        ready = 0.1
+      )
       assert(slow.drops == 0)
-      val (_, stalled) = check(s"stalled consumer, cross-check $cross", stream, MatchParams(hammingThreshold = 100, crossCheck = cross, ratio = None), stallFor = 3000)
+      val (_, stalled) = check(
+        s"stalled consumer, cross-check $cross",
+        stream,
+        MatchParams(hammingThreshold = 100, crossCheck = cross, ratio = None),
+        stallFor = 3000
+      )
       assert(stalled.drops > 0, "a 3000-clock stall must outlast the timeout")
     }
   }

@@ -14,7 +14,12 @@ class OrbCoreSpec extends AnyFunSuite {
 
   /** RTL == model on everything the core emits: corners, frame ends, the feature stream (the feature budget makes it
     * independent of timing: no drop unless a fault cuts a corner's rows, which the model has too) and the counters. */
-  def check(name: String, frames: Seq[GrayImage], blanking: Blanking, p: CornerParams = cornerParams): (CoreResult, RtlResult) = {
+  def check(
+      name: String,
+      frames: Seq[GrayImage],
+      blanking: Blanking,
+      p: CornerParams = cornerParams
+  ): (CoreResult, RtlResult) = {
     val beats = stream(frames)
     val model = CoreModel.run(config, beats, p)
     var rtl: RtlResult = null
@@ -22,12 +27,19 @@ class OrbCoreSpec extends AnyFunSuite {
     Scoreboard.compare(name, CoreEvents.of(model), rtl.events, frames.lastOption).foreach(msg => fail(msg))
     assert(rtl.counters == model.counters, s"$name: counters")
     assert(rtl.cornerCount == model.cornerCount, s"$name: corner counter")
-    Scoreboard.compareFeatureStreams(name, model.featureStream, rtl.featureStream, frames.lastOption).foreach(msg => fail(msg))
-    assert(rtl.featureDrops == model.featureDrops, s"$name: ${rtl.featureDrops} corners got no descriptor, the model says ${model.featureDrops}")
+    Scoreboard.compareFeatureStreams(name, model.featureStream, rtl.featureStream, frames.lastOption).foreach(msg =>
+      fail(msg)
+    )
+    assert(
+      rtl.featureDrops == model.featureDrops,
+      s"$name: ${rtl.featureDrops} corners got no descriptor, the model says ${model.featureDrops}"
+    )
     assert(rtl.deselected == model.deselected, s"$name: deselected corners")
     assert(rtl.featureCount == rtl.features.size)
-    assert(rtl.features.size + rtl.featureDrops + rtl.deselected == rtl.corners.size,
-      s"$name: every corner is a feature, deselected or a counted drop")
+    assert(
+      rtl.features.size + rtl.featureDrops + rtl.deselected == rtl.corners.size,
+      s"$name: every corner is a feature, deselected or a counted drop"
+    )
     println(f"[orb] $name%-32s ${frames.size} frames ${frames.head.width}x${frames.head.height}: " +
       s"${rtl.corners.size} corners, ${rtl.deselected} deselected, ${rtl.features.size} features, ${rtl.frameEnds.size} frame ends, ${rtl.cycles} clocks")
     (model, rtl)
@@ -43,7 +55,9 @@ class OrbCoreSpec extends AnyFunSuite {
     val (_, rtl) = check("edges", Seq.fill(2)(Patterns.edges(w, h)), Blanking.none)
     assert(rtl.corners.map(c => (c.x, c.y)).exists { case (x, y) => (x - w / 2).abs <= 2 && (y - h / 3).abs <= 2 })
   }
-  test("synthetic: checkerboard, every inner crossing, ties included (Harris maxima: a crossing fails the segment test)") {
+  test(
+    "synthetic: checkerboard, every inner crossing, ties included (Harris maxima: a crossing fails the segment test)"
+  ) {
     val (_, rtl) = check("checkerboard", Seq.fill(2)(Patterns.checkerboard(w, h, 8)), Blanking.random, harrisOnly)
     assert(rtl.corners.size >= 9, "a checkerboard has crossings inside the border")
   }
@@ -56,21 +70,29 @@ class OrbCoreSpec extends AnyFunSuite {
   test("synthetic: zero threshold (every local maximum), with and without the segment test") {
     val img = Patterns.boxes(w, h, rng("zero"))
     val (_, plain) = check("boxes-threshold0", Seq.fill(2)(img), Blanking.random, harrisOnly.copy(threshold = 0))
-    val (_, seg) = check("boxes-threshold0-segment", Seq.fill(2)(img), Blanking.random, cornerParams.copy(threshold = 0))
+    val (_, seg) =
+      check("boxes-threshold0-segment", Seq.fill(2)(img), Blanking.random, cornerParams.copy(threshold = 0))
     assert(seg.corners.nonEmpty && seg.corners != plain.corners, "the segment test changes which maxima are corners")
   }
   test("segment test thresholds: 0, 255 (nothing passes), and off, on a photograph crop") {
     val img = image("graf1.png").crop(300, 200, 128, 96)
     val (_, t0) = check("segment-t0", Seq.fill(2)(img), Blanking.random, cornerParams.copy(segmentThreshold = Some(0)))
-    val (_, t255) = check("segment-t255", Seq.fill(2)(img), Blanking.random, cornerParams.copy(segmentThreshold = Some(255)))
+    val (_, t255) =
+      check("segment-t255", Seq.fill(2)(img), Blanking.random, cornerParams.copy(segmentThreshold = Some(255)))
     val (_, off) = check("segment-off", Seq.fill(2)(img), Blanking.random, harrisOnly)
-    assert(t0.corners.nonEmpty && off.corners.nonEmpty && t255.corners.isEmpty, "t = 255: no pixel is 255 levels brighter or darker")
+    assert(
+      t0.corners.nonEmpty && off.corners.nonEmpty && t255.corners.isEmpty,
+      "t = 255: no pixel is 255 levels brighter or darker"
+    )
   }
   test("a flood of corners: the budget deselects, every selected corner gets its feature, the next frames complete") {
     val flood = Patterns.checkerboard(240, 120, 4)
     val calm = Patterns.boxes(240, 120, rng("calm"))
     val (model, rtl) = check("flood", Seq(flood, flood, calm, calm), Blanking.none, harrisOnly)
-    assert(rtl.corners.size > 500 && rtl.deselected > rtl.features.size, s"a flood: ${rtl.corners.size} corners, ${rtl.deselected} deselected")
+    assert(
+      rtl.corners.size > 500 && rtl.deselected > rtl.features.size,
+      s"a flood: ${rtl.corners.size} corners, ${rtl.deselected} deselected"
+    )
     assert(rtl.featureDrops == 0 && model.features.nonEmpty)
   }
   test("a consumer that pushes back half of the time: features unchanged, in order, none dropped") {
@@ -107,8 +129,14 @@ class OrbCoreSpec extends AnyFunSuite {
     val perFrame = model.features.size / 3
     assert(rtl.featureDrops >= perFrame, s"a stalled consumer costs features: ${rtl.featureDrops} dropped")
     assert(rtl.deselected == model.deselected, "the budget's choice does not depend on the consumer")
-    assert(rtl.features.size + rtl.featureDrops + rtl.deselected == rtl.corners.size, "every corner is a feature, deselected or a counted drop")
-    assert(rtl.features.takeRight(perFrame) == model.features.takeRight(perFrame), "the frame after the stall is complete")
+    assert(
+      rtl.features.size + rtl.featureDrops + rtl.deselected == rtl.corners.size,
+      "every corner is a feature, deselected or a counted drop"
+    )
+    assert(
+      rtl.features.takeRight(perFrame) == model.features.takeRight(perFrame),
+      "the frame after the stall is complete"
+    )
   }
   test("keyframe flags reach the frame ends") {
     val img = Patterns.boxes(w, h, rng("key"))
@@ -138,7 +166,11 @@ class OrbCoreSpec extends AnyFunSuite {
   }
   test("real photographs: crops, several blankings") {
     val graf = image("graf1.png")
-    check("graf1-crop", Seq(graf.crop(300, 200, 160, 120), graf.crop(300, 200, 160, 120), graf.crop(320, 210, 160, 120)), Blanking.random)
+    check(
+      "graf1-crop",
+      Seq(graf.crop(300, 200, 160, 120), graf.crop(300, 200, 160, 120), graf.crop(320, 210, 160, 120)),
+      Blanking.random
+    )
     val box = image("box.png")
     check("box", Seq(box, box), Blanking.camera, harrisOnly)
     // 324-px lines of dense texture (printed text), no blanking: the budget keeps what the engines can serve

@@ -36,11 +36,20 @@ class OrbModelSpec extends AnyFunSuite {
   }
 
   test("pattern rotation: cvRound semantics (half to even) and exact quarter turns") {
-    assert(OrbModel.roundHalfEven(5L << 15, 16) == 2 && OrbModel.roundHalfEven(3L << 15, 16) == 2 && OrbModel.roundHalfEven(7L << 15, 16) == 4)
+    assert(
+      OrbModel.roundHalfEven(5L << 15, 16) == 2 && OrbModel.roundHalfEven(3L << 15, 16) == 2 && OrbModel.roundHalfEven(
+        7L << 15,
+        16
+      ) == 4
+    )
     assert(OrbModel.roundHalfEven(-(1L << 15), 16) == 0 && OrbModel.roundHalfEven(-(3L << 15), 16) == -2)
     val quarter = OrbModel.rotatedTests(cfg.angleBins / 4, cfg)
-    assert(quarter.zip(Pattern.tests).forall { case ((x1, y1, x2, y2), t) => (x1, y1, x2, y2) == (-t.y1, t.x1, -t.y2, t.x2) })
-    assert(OrbModel.rotatedTests(0, cfg).forall { case (x1, y1, x2, y2) => Seq(x1, y1, x2, y2).forall(_.abs <= OrbDescriptorConfig.sampleReach) })
+    assert(quarter.zip(Pattern.tests).forall { case ((x1, y1, x2, y2), t) =>
+      (x1, y1, x2, y2) == (-t.y1, t.x1, -t.y2, t.x2)
+    })
+    assert(OrbModel.rotatedTests(0, cfg).forall { case (x1, y1, x2, y2) =>
+      Seq(x1, y1, x2, y2).forall(_.abs <= OrbDescriptorConfig.sampleReach)
+    })
   }
 
   test("a flat patch gives an all-zero descriptor; a left-to-right ramp gives the tests with x1 < x2") {

@@ -58,8 +58,13 @@ class DenseOrientationHarness(c: OrbConfig) extends Component {
 }
 
 /** The ports either harness drives. */
-final case class OrientationDut(pixels: Flow[PixelBeat], control: CornerParamsHw, oriented: Flow[OrientedCorner],
-                                dropped: UInt, clockDomain: ClockDomain)
+final case class OrientationDut(
+    pixels: Flow[PixelBeat],
+    control: CornerParamsHw,
+    oriented: Flow[OrientedCorner],
+    dropped: UInt,
+    clockDomain: ClockDomain
+)
 
 class OrientationSpec extends AnyFunSuite {
   import TestSupport._
@@ -72,7 +77,13 @@ class OrientationSpec extends AnyFunSuite {
   val denseConfig: OrbConfig = config.copy(descriptor = config.descriptor.copy(cornerQueueDepth = 4096))
   lazy val dense = CoreSim.simConfig("simWorkspace/test").compile(new DenseOrientationHarness(denseConfig))
 
-  def check(name: String, img: GrayImage, blanking: Blanking, all: Boolean = false, p: CornerParams = cornerParams): Unit = {
+  def check(
+      name: String,
+      img: GrayImage,
+      blanking: Blanking,
+      all: Boolean = false,
+      p: CornerParams = cornerParams
+  ): Unit = {
     val d = config.descriptor
     val model = CoreModel.run(config, Beat.frame(img) ++ Beat.frame(img), p)
     val selected = if (all) model.corners else model.budget.last._2.selected
@@ -88,16 +99,24 @@ class OrientationSpec extends AnyFunSuite {
       CoreSim.startClock(dut.clockDomain)
       dut.clockDomain.onSamplings {
         val o = dut.oriented
-        if (o.valid.toBoolean && !o.end.now.toBoolean) got += ((o.corner.x.toInt, o.corner.y.toInt, o.corner.score.toLong, o.m10.toLong, o.m01.toLong, o.bin.toInt))
+        if (o.valid.toBoolean && !o.end.now.toBoolean)
+          got += ((o.corner.x.toInt, o.corner.y.toInt, o.corner.score.toLong, o.m10.toLong, o.m01.toLong, o.bin.toInt))
       }
       CoreSim.drivePixels(dut.pixels, dut.clockDomain, Beat.frame(img) ++ Beat.frame(img), blanking, rng(name))
       dut.clockDomain.waitSampling(50)
       dropped = dut.dropped.toLong
     }
-    if (all) dense.doSim(name, seed.toInt)(dut => run(OrientationDut(dut.io.pixels, dut.io.control, dut.io.oriented, dut.io.dropped, dut.clockDomain)))
-    else harness.doSim(name, seed.toInt)(dut => run(OrientationDut(dut.io.pixels, dut.io.control, dut.io.oriented, dut.io.dropped, dut.clockDomain)))
+    if (all) dense.doSim(name, seed.toInt)(dut =>
+      run(OrientationDut(dut.io.pixels, dut.io.control, dut.io.oriented, dut.io.dropped, dut.clockDomain))
+    )
+    else harness.doSim(name, seed.toInt)(dut =>
+      run(OrientationDut(dut.io.pixels, dut.io.control, dut.io.oriented, dut.io.dropped, dut.clockDomain))
+    )
     val diffs = expected.zipAll(got, null, null).filter { case (a, b) => a != b }
-    assert(diffs.isEmpty, s"$name: ${diffs.size} differ (model ${expected.size}, RTL ${got.size}); first ${diffs.take(3).mkString("; ")}")
+    assert(
+      diffs.isEmpty,
+      s"$name: ${diffs.size} differ (model ${expected.size}, RTL ${got.size}); first ${diffs.take(3).mkString("; ")}"
+    )
     assert(dropped == 0, s"$name: $dropped corners dropped")
     println(s"[orb] orientation $name: ${got.size} corners, moments and bins equal to the model, none dropped")
   }

@@ -16,8 +16,19 @@ class RegisterMapSpec extends AnyFunSuite {
     assert(all.map(_.address) == all.map(_.address).sorted.distinct, "addresses in order, one register per word")
     assert(all.filterNot(_.writable).forall(_.hardware.isDefined))
     assert(all.filter(_.writable).forall(r => r.hardware.isEmpty && r.model.isEmpty))
-    assert(RegisterMap.counters.map(_.key) == Seq("frames", "bad_frames", "bad_lines", "corners", "features",
-      "feature_drops", "stored", "store_overflow", "matches", "match_drops", "deselected"))
+    assert(RegisterMap.counters.map(_.key) == Seq(
+      "frames",
+      "bad_frames",
+      "bad_lines",
+      "corners",
+      "features",
+      "feature_drops",
+      "stored",
+      "store_overflow",
+      "matches",
+      "match_drops",
+      "deselected"
+    ))
     assert(RegisterMap.CONTROL.reset(OrbConfig.default) == 6 && RegisterMap.id == BigInt("4f524203", 16))
   }
 }

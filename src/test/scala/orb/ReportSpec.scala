@@ -20,32 +20,48 @@ class ReportSpec extends AnyFunSuite {
 
   test("the proxy's wrapper synthesises, and plain registers move into the RAM and multiplier blocks") {
     val dir = new File("target/report-test/probes")
-    for ((make, expected) <- Seq[(() => Component, String)](
-      (() => new Ecp5Proxy.RamProbe) -> "ram_ports=1 ram_ffs=16 mult_inputs=0 mult_constant_inputs=0 mult_outputs=0 mult_ffs=0 mult_constant_pins=0 inverted_enables=0",
-      // both operand registers and the product register (16 + 16 + 32 flip-flops)
-      (() => new Ecp5Proxy.MulProbe) -> "ram_ports=0 ram_ffs=0 mult_inputs=2 mult_constant_inputs=0 mult_outputs=1 mult_ffs=64 mult_constant_pins=5 inverted_enables=0",
-      // the variable operand's register and the product register; the constant operand registered with them
-      (() => new Ecp5Proxy.ConstMulProbe) -> "ram_ports=0 ram_ffs=0 mult_inputs=1 mult_constant_inputs=1 mult_outputs=1 mult_ffs=48 mult_constant_pins=5 inverted_enables=0"
-    )) {
+    for (
+      (make, expected) <- Seq[(() => Component, String)](
+        (
+            () => new Ecp5Proxy.RamProbe
+        ) -> "ram_ports=1 ram_ffs=16 mult_inputs=0 mult_constant_inputs=0 mult_outputs=0 mult_ffs=0 mult_constant_pins=0 inverted_enables=0",
+        // both operand registers and the product register (16 + 16 + 32 flip-flops)
+        (
+            () => new Ecp5Proxy.MulProbe
+        ) -> "ram_ports=0 ram_ffs=0 mult_inputs=2 mult_constant_inputs=0 mult_outputs=1 mult_ffs=64 mult_constant_pins=5 inverted_enables=0",
+        // the variable operand's register and the product register; the constant operand registered with them
+        (
+            () => new Ecp5Proxy.ConstMulProbe
+        ) -> "ram_ports=0 ram_ffs=0 mult_inputs=1 mult_constant_inputs=1 mult_outputs=1 mult_ffs=48 mult_constant_pins=5 inverted_enables=0"
+      )
+    ) {
       val r = Generate.spinalConfig(dir.getPath).generate(make())
       val work = new File(dir, r.toplevelName)
       Ecp5Proxy.synthesize(Seq("yosys"), work, new File(dir, s"${r.toplevelName}.v"), r.toplevelName)
       assert(Ecp5Proxy.packRegisters(work) == expected, r.toplevelName)
       val packed = scala.io.Source.fromFile(new File(work, "packed.json")).mkString
-      if (r.toplevelName == "RamProbe") assert(packed.contains("\"REGMODE_B\": \"OUTREG\"") || packed.contains("\"REGMODE_A\": \"OUTREG\""))
+      if (r.toplevelName == "RamProbe")
+        assert(packed.contains("\"REGMODE_B\": \"OUTREG\"") || packed.contains("\"REGMODE_A\": \"OUTREG\""))
       else assert(packed.contains("\"REG_OUTPUT_CLK\": \"CLK0\"") && packed.contains("\"REG_INPUTA_CLK\": \"CLK0\"") &&
         packed.contains("\"REG_INPUTB_CLK\": \"CLK0\""))
     }
     // The wrapper: every input from the ring, every output into the tree; no input pin.
-    val ports = Seq(Ecp5Proxy.Port("clk", input = true, 1), Ecp5Proxy.Port("reset", input = true, 1),
-      Ecp5Proxy.Port("io_a", input = true, 16), Ecp5Proxy.Port("io_p", input = false, 32))
+    val ports = Seq(
+      Ecp5Proxy.Port("clk", input = true, 1),
+      Ecp5Proxy.Port("reset", input = true, 1),
+      Ecp5Proxy.Port("io_a", input = true, 16),
+      Ecp5Proxy.Port("io_p", input = false, 32)
+    )
     val w = Ecp5Proxy.wrapper("M", ports)
     assert(w.contains("module proxy_top (input wire clk, output wire dout);") && w.contains(".io_a(ring[15:0])") &&
-      w.contains(".io_p(outs[31:0])") && w.contains(".reset(reset_g)") && w.contains("DCCA reset_buffer") && w.contains("assign dout = level3[0];"))
-    assert(Ecp5Proxy.ports(scala.io.Source.fromFile(new File(dir, "MulProbe.v")).mkString, "MulProbe").map(p => p.name -> p.width).toSet ==
+      w.contains(".io_p(outs[31:0])") && w.contains(".reset(reset_g)") && w.contains("DCCA reset_buffer") && w.contains(
+        "assign dout = level3[0];"
+      ))
+    assert(Ecp5Proxy.ports(scala.io.Source.fromFile(new File(dir, "MulProbe.v")).mkString, "MulProbe").map(p =>
+      p.name -> p.width
+    ).toSet ==
       Set("io_a" -> 16, "io_b" -> 16, "io_product" -> 32, "clk" -> 1, "reset" -> 1))
   }
-
 
   test("report.json and report.md for the default configuration, without timing") {
     val dir = new File("target/report-test")
@@ -57,7 +73,8 @@ class ReportSpec extends AnyFunSuite {
     for (k <- Seq("les", "luts", "ffs", "m4k", "multipliers", "pixels_per_clock")) assert(number(k) >= 0, k)
     assert(json.contains("\"fmax_mhz\": null"), "--no-timing gives fmax_mhz null")
     val blocks = json.substring(json.indexOf("\"blocks\""), json.indexOf("\"memories\""))
-    for (b <- Seq("core.harris", "core.budget", "core.descriptors", "matcher", "top")) assert(blocks.contains(s""""$b": {"les": """), b)
+    for (b <- Seq("core.harris", "core.budget", "core.descriptors", "matcher", "top"))
+      assert(blocks.contains(s""""$b": {"les": """), b)
     for (k <- Seq("luts", "ffs", "m4k", "multipliers", "fmax_mhz", "pixels_per_clock"))
       assert(s""""$k": """.r.findAllMatchIn(blocks).size == 9, s"every block has $k")
     // Per-block figures add up to the totals; the memory list adds up to the M4K total.
@@ -75,8 +92,11 @@ class ReportSpec extends AnyFunSuite {
     assert(""""depth": 1024, "width": 8""".r.findAllMatchIn(memories).size == rows % 2)
     assert(memories.contains(s""""depth": ${cfg.matcher.groups}, "width": 278"""))
     assert(number("multipliers") >= 24, "at least the Harris products")
-    assert(number("per_cell") == cfg.budget.perCell && number("clocks_per_feature") == cfg.clocksPerFeature &&
-      number("descriptor_clocks_max") == DescriptorUnit.maxClocks(cfg.descriptor), "the budget's capacity figures")
+    assert(
+      number("per_cell") == cfg.budget.perCell && number("clocks_per_feature") == cfg.clocksPerFeature &&
+        number("descriptor_clocks_max") == DescriptorUnit.maxClocks(cfg.descriptor),
+      "the budget's capacity figures"
+    )
     // Logic elements as two bounds: flip-flops packed with any LUT, or only with the one feeding them.
     assert(number("les") >= number("les_low") && number("ffs_alone") <= number("ffs") && number("ffs_alone") > 0)
     assert(number("les") == number("luts") + number("carry_les") + number("ffs_alone"))

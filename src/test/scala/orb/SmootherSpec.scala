@@ -42,7 +42,8 @@ class SmootherSpec extends AnyFunSuite {
           val (x, y) = (s.pixel.x.toInt - 3, s.pixel.y.toInt - 3)
           if (x >= 3 && y >= 3) {
             checked += 1
-            if (s.smoothed.toInt != expected(x, y)) mismatches :+= s"($x,$y): RTL ${s.smoothed.toInt}, model ${expected(x, y)}"
+            if (s.smoothed.toInt != expected(x, y))
+              mismatches :+= s"($x,$y): RTL ${s.smoothed.toInt}, model ${expected(x, y)}"
           }
         }
       }

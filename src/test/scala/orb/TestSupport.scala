@@ -7,14 +7,17 @@ import scala.util.Random
 
 /** Shared by the suites: one compiled Verilator model per test run, seeds, test images. */
 object TestSupport {
+
   /** Every suite's random choices derive from this; override with ORB_SEED=n. */
   val seed: Long = sys.env.get("ORB_SEED").flatMap(_.toLongOption).getOrElse(20261123L)
   def rng(salt: String): Random = new Random(seed ^ salt.hashCode.toLong)
 
   val config: OrbConfig = OrbConfig.default
   val threshold: Long = config.harris.defaultThreshold
+
   /** The detector after reset: Harris threshold and segment test */
   val cornerParams: CornerParams = config.defaultParams
+
   /** Pure Harris maxima (segment test off) at half the threshold, which gives them about the corner rate of the
     * default on the photographs; also for patterns whose corners are crossings, which no segment test passes */
   val harrisOnly: CornerParams = CornerParams(threshold / 2, None)
@@ -52,6 +55,7 @@ object TestSupport {
     def checkerboard(w: Int, h: Int, square: Int): GrayImage =
       GrayImage.tabulate(w, h)((x, y) => if (((x / square) + (y / square)) % 2 == 0) 30 else 220)
     def noise(w: Int, h: Int, rng: Random): GrayImage = GrayImage.tabulate(w, h)((_, _) => rng.nextInt(256))
+
     /** Bright rectangles of random size and level on a dark ground: corners of every contrast. */
     def boxes(w: Int, h: Int, rng: Random, n: Int = 12): GrayImage = {
       val px = Array.fill(w * h)(20 + rng.nextInt(10))

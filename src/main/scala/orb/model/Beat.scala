@@ -4,6 +4,7 @@ package orb.model
 final case class Beat(luma: Int, sof: Boolean, eol: Boolean, keyframe: Boolean = false)
 
 object Beat {
+
   /** A well-formed frame: sof on its first pixel, eol on the last pixel of every line. */
   def frame(img: GrayImage, keyframe: Boolean = false): Seq[Beat] =
     for (y <- 0 until img.height; x <- 0 until img.width)

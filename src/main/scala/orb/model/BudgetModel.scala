@@ -70,7 +70,14 @@ object BudgetModel {
     * (`activeCount`; all of them when the frame was good). Winners of bands whose emission beat came after a fault
     * are dropped (the fault ends the frame's processing); the corners their cells beat are deselected. Lines too
     * short for the engines to serve `perCell` corners per cell keep fewer (`OrbConfig.perCellFor`). */
-  def frame(corners: Seq[Corner], width: Int, activeCount: Long, cut: Cut, target: Int, c: OrbConfig): FrameSelection = {
+  def frame(
+      corners: Seq[Corner],
+      width: Int,
+      activeCount: Long,
+      cut: Cut,
+      target: Int,
+      c: OrbConfig
+  ): FrameSelection = {
     val cfg = c.budget
     val winners = cellWinners(corners, c.perCellFor(width), cfg)
     val (emitted, cutOff) = winners.partition(w => emitBeat(w.y, width, cfg) < activeCount)

@@ -7,17 +7,24 @@ import scala.collection.mutable.ArrayBuffer
 final case class FrameEnd(ok: Boolean, keyframe: Boolean)
 
 /** Everything the core emits for a beat sequence, in emission order. */
-final case class CoreResult(corners: Seq[Corner], frameEnds: Seq[FrameEnd], counters: FrameCounters, cornerCount: Long,
-                            /** the features of the emitted corners whose descriptor rows came before any fault */
-                            features: Seq[Feature],
-                            /** the feature output: each processed frame's features, then its end */
-                            featureStream: Seq[Either[FrameEnd, Feature]],
-                            /** per emitted corner / frame end: the index of the beat that carried it */
-                            cornerBeats: Seq[Int], frameEndBeats: Seq[Int],
-                            /** corners the feature budget did not select (`BudgetModel`) */
-                            deselected: Long = 0,
-                            /** per processed frame, in order: the budget's cut it was selected with, and its selection */
-                            budget: Seq[(BudgetModel.Cut, BudgetModel.FrameSelection)] = Nil) {
+final case class CoreResult(
+    corners: Seq[Corner],
+    frameEnds: Seq[FrameEnd],
+    counters: FrameCounters,
+    cornerCount: Long,
+    /** the features of the emitted corners whose descriptor rows came before any fault */
+    features: Seq[Feature],
+    /** the feature output: each processed frame's features, then its end */
+    featureStream: Seq[Either[FrameEnd, Feature]],
+    /** per emitted corner / frame end: the index of the beat that carried it */
+    cornerBeats: Seq[Int],
+    frameEndBeats: Seq[Int],
+    /** corners the feature budget did not select (`BudgetModel`) */
+    deselected: Long = 0,
+    /** per processed frame, in order: the budget's cut it was selected with, and its selection */
+    budget: Seq[(BudgetModel.Cut, BudgetModel.FrameSelection)] = Nil
+) {
+
   /** corners that were selected but got no feature: their descriptor rows were cut by a fault */
   def featureDrops: Long = cornerCount - deselected - features.size
 }
@@ -86,8 +93,17 @@ object CoreModel {
     }
     flush()
     val sortedCorners = corners.sortBy(_._1)
-    CoreResult(sortedCorners.map(_._2).toSeq, ends.map(_._2).toSeq, tracker.stats, corners.size.toLong, features.toSeq,
+    CoreResult(
+      sortedCorners.map(_._2).toSeq,
+      ends.map(_._2).toSeq,
+      tracker.stats,
+      corners.size.toLong,
+      features.toSeq,
       featureStream.toSeq,
-      sortedCorners.map(_._1).toSeq, ends.map(_._1).toSeq, deselected, budget.toSeq)
+      sortedCorners.map(_._1).toSeq,
+      ends.map(_._1).toSeq,
+      deselected,
+      budget.toSeq
+    )
   }
 }

@@ -32,8 +32,10 @@ object DescriptorSchedule {
 
   def bankOf(slot: Int): Int = slot / 2
   def banks(cfg: OrbDescriptorConfig): Int = (cfg.smoothedRows + 1) / 2
+
   /** Port B only: a point in a patch's newest or oldest row. */
   def portBOnly(ry: Int): Boolean = ry.abs == OrbDescriptorConfig.sampleReach
+
   /** The ring slot of a point `ry` rows from the corner, for a patch whose oldest row is in slot `base`. */
   def slotOf(base: Int, ry: Int, cfg: OrbDescriptorConfig): Int =
     (base + ry + OrbDescriptorConfig.sampleReach) % cfg.smoothedRows
@@ -97,9 +99,12 @@ object DescriptorSchedule {
     groupPoints(bin, base, cfg).map(plan(_).issues).sum
 
   private val maxCache = scala.collection.concurrent.TrieMap[OrbDescriptorConfig, Int]()
+
   /** The most clocks of reads any descriptor takes: over every bin and every ring position of its patch. */
-  def maxIssueClocks(cfg: OrbDescriptorConfig): Int = maxCache.getOrElseUpdate(cfg,
-    (0 until cfg.angleBins).map(bin => (0 until cfg.smoothedRows).map(issueClocks(bin, _, cfg)).max).max)
+  def maxIssueClocks(cfg: OrbDescriptorConfig): Int = maxCache.getOrElseUpdate(
+    cfg,
+    (0 until cfg.angleBins).map(bin => (0 until cfg.smoothedRows).map(issueClocks(bin, _, cfg)).max).max
+  )
 
   /** Clocks beyond one a group of a descriptor's last `n` groups take, together: the most the groups of one corner
     * still in the engine's front end can hold up the next corner's first group. */
@@ -107,7 +112,10 @@ object DescriptorSchedule {
     groupPoints(bin, base, cfg).takeRight(n).map(plan(_).issues - 1).sum
 
   private val tailCache = scala.collection.concurrent.TrieMap[(OrbDescriptorConfig, Int), Int]()
+
   /** The most of `tailExtraClocks` over every bin and ring position. */
-  def maxTailExtraClocks(n: Int, cfg: OrbDescriptorConfig): Int = tailCache.getOrElseUpdate((cfg, n),
-    (0 until cfg.angleBins).map(bin => (0 until cfg.smoothedRows).map(tailExtraClocks(bin, _, n, cfg)).max).max)
+  def maxTailExtraClocks(n: Int, cfg: OrbDescriptorConfig): Int = tailCache.getOrElseUpdate(
+    (cfg, n),
+    (0 until cfg.angleBins).map(bin => (0 until cfg.smoothedRows).map(tailExtraClocks(bin, _, n, cfg)).max).max
+  )
 }

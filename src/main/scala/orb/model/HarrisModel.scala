@@ -23,24 +23,31 @@ object HarrisModel {
     val (w, h) = (img.width, img.height)
     def gx(x: Int, y: Int) = (-1 to 1).map(d => (2 - d.abs) * (img(x + 1, y + d) - img(x - 1, y + d))).sum
     def gy(x: Int, y: Int) = (-1 to 1).map(d => (2 - d.abs) * (img(x + d, y + 1) - img(x + d, y - 1))).sum
-    (plane(w, h)((x, y) => if (inside(w, h, x, y, 1)) gx(x, y) else 0),
-     plane(w, h)((x, y) => if (inside(w, h, x, y, 1)) gy(x, y) else 0))
+    (
+      plane(w, h)((x, y) => if (inside(w, h, x, y, 1)) gx(x, y) else 0),
+      plane(w, h)((x, y) => if (inside(w, h, x, y, 1)) gy(x, y) else 0)
+    )
   }
 
   /** gx^2, gy^2, gx*gy, exact. */
   def products(gx: Plane[Long], gy: Plane[Long]): (Plane[Long], Plane[Long], Plane[Long]) = {
     val (w, h) = (gx.width, gx.height)
-    (plane(w, h)((x, y) => gx(x, y) * gx(x, y)), plane(w, h)((x, y) => gy(x, y) * gy(x, y)),
-     plane(w, h)((x, y) => gx(x, y) * gy(x, y)))
+    (
+      plane(w, h)((x, y) => gx(x, y) * gx(x, y)),
+      plane(w, h)((x, y) => gy(x, y) * gy(x, y)),
+      plane(w, h)((x, y) => gx(x, y) * gy(x, y))
+    )
   }
 
   /** 7x7 binomial window: exact column sums, exact row sums of those, then `>> windowShift` rounded half up. */
   def window(p: Plane[Long], cfg: HarrisConfig): Plane[Long] = {
     val (w, h) = (p.width, p.height)
     val wts = HarrisConfig.binomial
-    val column = plane(w, h)((x, y) => if (y >= 3 && y < h - 3) wts.indices.map(i => wts(i) * p(x, y + i - 3)).sum else 0)
+    val column =
+      plane(w, h)((x, y) => if (y >= 3 && y < h - 3) wts.indices.map(i => wts(i) * p(x, y + i - 3)).sum else 0)
     plane(w, h) { (x, y) =>
-      if (inside(w, h, x, y, 4)) roundShift(wts.indices.map(i => wts(i) * column(x + i - 3, y)).sum, cfg.windowShift) else 0
+      if (inside(w, h, x, y, 4)) roundShift(wts.indices.map(i => wts(i) * column(x + i - 3, y)).sum, cfg.windowShift)
+      else 0
     }
   }
 
@@ -69,13 +76,17 @@ object HarrisModel {
     val (w, h) = (img.width, img.height)
     val ring = SegmentTestConfig.circle
     def run(hit: IndexedSeq[Boolean]) = ring.indices.exists(s => (0 until arc).forall(k => hit((s + k) % ring.size)))
-    new Plane(w, h, Array.tabulate(w * h) { i =>
-      val (x, y) = (i % w, i / w)
-      inside(w, h, x, y, SegmentTestConfig.radius) && {
-        val c = img(x, y); val p = ring.map { case (dx, dy) => img(x + dx, y + dy) }.toIndexedSeq
-        run(p.map(_ > c + t)) || run(p.map(_ < c - t))
+    new Plane(
+      w,
+      h,
+      Array.tabulate(w * h) { i =>
+        val (x, y) = (i % w, i / w)
+        inside(w, h, x, y, SegmentTestConfig.radius) && {
+          val c = img(x, y); val p = ring.map { case (dx, dy) => img(x + dx, y + dy) }.toIndexedSeq
+          run(p.map(_ > c + t)) || run(p.map(_ < c - t))
+        }
       }
-    })
+    )
   }
 
   /** The scores the suppression sees: a pixel that fails the segment test scores 0 (it can neither be a corner nor

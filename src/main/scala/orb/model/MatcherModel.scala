@@ -44,7 +44,9 @@ object MatcherModel {
     Store(kept.toIndexedSeq, (keyframe.size - cfg.storeCapacity) max 0)
   }
 
-  def distance(a: Feature, b: Feature): Int = a.descriptor.zip(b.descriptor).map { case (p, q) => Integer.bitCount(p ^ q) }.sum
+  def distance(a: Feature, b: Feature): Int = a.descriptor.zip(b.descriptor).map { case (p, q) =>
+    Integer.bitCount(p ^ q)
+  }.sum
 
   /** (best index, best distance, second distance) of a live feature against the store; None for an empty store. */
   def nearest(live: Feature, s: Store): Option[(Int, Int, Int)] =
@@ -63,7 +65,8 @@ object MatcherModel {
     val candidates = live.zipWithIndex.flatMap { case (q, i) =>
       nearest(q, s).filter { case (_, b, sec) => accepted(b, sec, p, cfg) }.map { case (j, b, _) => (i, j, b) }
     }
-    val kept = if (!p.crossCheck) candidates else {
+    val kept = if (!p.crossCheck) candidates
+    else {
       val bestLive = s.features.indices.map { j =>
         if (live.isEmpty) -1 else live.indices.minBy(i => (distance(live(i), s.features(j)), i))
       }

@@ -7,6 +7,7 @@ import orb.OrbDescriptorConfig._
   * OpenCV stores it (byte i/8, bit i%8 least significant first). */
 final case class Feature(x: Int, y: Int, bin: Int, score: Long, descriptor: Vector[Int]) {
   require(descriptor.size == OrbDescriptorConfig.descriptorBytes)
+
   /** the descriptor as one number: byte i in bits 8i .. 8i + 7, so bit i is test i */
   def descriptorBits: BigInt = descriptor.zipWithIndex.map { case (b, i) => BigInt(b) << (8 * i) }.sum
   def hex: String = descriptor.map(b => f"$b%02x").mkString
@@ -14,6 +15,7 @@ final case class Feature(x: Int, y: Int, bin: Int, score: Long, descriptor: Vect
 }
 
 object Feature {
+
   /** the descriptor bytes of a `descriptorBits` number */
   def descriptorOf(bits: BigInt): Vector[Int] =
     Vector.tabulate(OrbDescriptorConfig.descriptorBytes)(b => ((bits >> (8 * b)) & 0xff).toInt)
@@ -33,11 +35,15 @@ object OrbModel {
       val (x, y) = (i % w, i / w)
       if (x < r || x >= w - r) 0L else blurKernel.indices.map(j => blurKernel(j).toLong * img(x + j - r, y)).sum
     }
-    GrayImage(w, h, Array.tabulate(w * h) { i =>
-      val (x, y) = (i % w, i / w)
-      if (y < r || y >= h - r || x < r || x >= w - r) 0
-      else ((blurKernel.indices.map(j => blurKernel(j) * hor((y + j - r) * w + x)).sum + (1L << 15)) >> 16).toInt
-    })
+    GrayImage(
+      w,
+      h,
+      Array.tabulate(w * h) { i =>
+        val (x, y) = (i % w, i / w)
+        if (y < r || y >= h - r || x < r || x >= w - r) 0
+        else ((blurKernel.indices.map(j => blurKernel(j) * hor((y + j - r) * w + x)).sum + (1L << 15)) >> 16).toInt
+      }
+    )
   }
 
   /** Offsets (u, v) of OpenCV's circular orientation patch (radius 15, half widths `umax`). */
@@ -89,16 +95,20 @@ object OrbModel {
     (roundHalfEven(x * c - y * s, f), roundHalfEven(x * s + y * c, f))
   }
 
-  private val rotatedCache = scala.collection.concurrent.TrieMap[(OrbDescriptorConfig, Int), IndexedSeq[(Int, Int, Int, Int)]]()
+  private val rotatedCache =
+    scala.collection.concurrent.TrieMap[(OrbDescriptorConfig, Int), IndexedSeq[(Int, Int, Int, Int)]]()
+
   /** The 256 tests of a bin, rotated. */
   def rotatedTests(bin: Int, cfg: OrbDescriptorConfig): IndexedSeq[(Int, Int, Int, Int)] =
-    rotatedCache.getOrElseUpdate((cfg, bin), {
-      val cs = cosSin(bin, cfg)
-      Pattern.tests.map { t =>
-        val (x1, y1) = rotate(t.x1, t.y1, cs, cfg); val (x2, y2) = rotate(t.x2, t.y2, cs, cfg)
-        (x1, y1, x2, y2)
+    rotatedCache.getOrElseUpdate(
+      (cfg, bin), {
+        val cs = cosSin(bin, cfg)
+        Pattern.tests.map { t =>
+          val (x1, y1) = rotate(t.x1, t.y1, cs, cfg); val (x2, y2) = rotate(t.x2, t.y2, cs, cfg)
+          (x1, y1, x2, y2)
+        }
       }
-    })
+    )
 
   /** Bit i = smoothed(p1) < smoothed(p2), packed as OpenCV does. */
   def descriptor(smoothed: GrayImage, x: Int, y: Int, bin: Int, cfg: OrbDescriptorConfig): Vector[Int] = {

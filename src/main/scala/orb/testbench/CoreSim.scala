@@ -11,13 +11,20 @@ import scala.util.Random
 
 /** Blanking inserted by the driver: after each pixel (with probability `pixelGapProb`, 1..maxPixelGap idle
   * clocks), after each line and before each frame (uniform in the given inclusive ranges). */
-final case class Blanking(pixelGapProb: Double = 0, maxPixelGap: Int = 0, lineGap: (Int, Int) = (0, 0), frameGap: (Int, Int) = (0, 0)) {
+final case class Blanking(
+    pixelGapProb: Double = 0,
+    maxPixelGap: Int = 0,
+    lineGap: (Int, Int) = (0, 0),
+    frameGap: (Int, Int) = (0, 0)
+) {
   require(pixelGapProb >= 0 && pixelGapProb <= 1 && lineGap._1 <= lineGap._2 && frameGap._1 <= frameGap._2)
 }
 object Blanking {
   val none: Blanking = Blanking()
+
   /** A camera-like stream: no gaps inside lines, horizontal and vertical blanking. */
   val camera: Blanking = Blanking(lineGap = (16, 64), frameGap = (100, 400))
+
   /** Irregular gaps everywhere, including none at all between some lines. */
   val random: Blanking = Blanking(pixelGapProb = 0.2, maxPixelGap = 3, lineGap = (0, 20), frameGap = (0, 50))
 }
@@ -32,15 +39,24 @@ sealed trait CoreEvent
 final case class CornerEvent(c: Corner) extends CoreEvent
 final case class FrameEndEvent(e: FrameEnd) extends CoreEvent
 
-final case class RtlResult(events: Seq[CoreEvent], counters: FrameCounters, cornerCount: Long, cycles: Long,
-                           featureStream: Seq[Either[FrameEnd, Feature]], featureCount: Long, featureDrops: Long,
-                           deselected: Long, engineRuns: Seq[EngineRun] = Nil) {
+final case class RtlResult(
+    events: Seq[CoreEvent],
+    counters: FrameCounters,
+    cornerCount: Long,
+    cycles: Long,
+    featureStream: Seq[Either[FrameEnd, Feature]],
+    featureCount: Long,
+    featureDrops: Long,
+    deselected: Long,
+    engineRuns: Seq[EngineRun] = Nil
+) {
   def features: Seq[Feature] = featureStream.collect { case Right(f) => f }
   def corners: Seq[Corner] = events.collect { case CornerEvent(c) => c }
   def frameEnds: Seq[FrameEnd] = events.collect { case FrameEndEvent(e) => e }
 }
 
 object CoreEvents {
+
   /** The model's output as the same ordered event list the RTL monitor records. */
   def of(r: CoreResult): Seq[CoreEvent] = {
     val cs = r.corners.zip(r.cornerBeats).map { case (c, b) => (b, 0, CornerEvent(c): CoreEvent) }
@@ -104,6 +120,7 @@ object CoreSim {
     val events = ArrayBuffer[CoreEvent]()
     val featureStream = ArrayBuffer[Either[FrameEnd, Feature]]()
     def features: Seq[Feature] = featureStream.collect { case Right(f) => f }.toSeq
+
     /** the clock (counted from the monitor's start) of each corner event */
     val cornerClocks = ArrayBuffer[Long]()
     val engineRuns = ArrayBuffer[EngineRun]()
@@ -118,7 +135,13 @@ object CoreSim {
       cycles += 1
       for ((s, i) <- engine.slots.zipWithIndex) {
         if (started(i) >= 0 && s.state.toEnum == EngineState.FINISHED) {
-          engineRuns += EngineRun(s.corner.bin.toInt, s.base.toInt, (cycles - started(i)).toInt, fetched(i), overlapped(i))
+          engineRuns += EngineRun(
+            s.corner.bin.toInt,
+            s.base.toInt,
+            (cycles - started(i)).toInt,
+            fetched(i),
+            overlapped(i)
+          )
           started(i) = -1
         }
       }
@@ -153,8 +176,14 @@ object CoreSim {
 
   /** Sends `beats` on a pixel port with the given blanking, one pixel per clock at most; `progress` is called
     * every 64k beats. */
-  def drivePixels(pixels: Flow[PixelBeat], cd: ClockDomain, beats: Seq[Beat], blanking: Blanking, rng: Random,
-                  progress: Int => Unit = _ => ()): Unit = {
+  def drivePixels(
+      pixels: Flow[PixelBeat],
+      cd: ClockDomain,
+      beats: Seq[Beat],
+      blanking: Blanking,
+      rng: Random,
+      progress: Int => Unit = _ => ()
+  ): Unit = {
     def gap(n: Int): Unit = if (n > 0) { pixels.valid #= false; cd.waitSampling(n) }
     def uniform(r: (Int, Int)) = r._1 + rng.nextInt(r._2 - r._1 + 1)
     var i = 0
@@ -167,7 +196,8 @@ object CoreSim {
       pixels.keyframe #= b.keyframe
       cd.waitSampling()
       if (b.eol) gap(uniform(blanking.lineGap))
-      if (blanking.pixelGapProb > 0 && rng.nextDouble() < blanking.pixelGapProb) gap(1 + rng.nextInt(blanking.maxPixelGap max 1))
+      if (blanking.pixelGapProb > 0 && rng.nextDouble() < blanking.pixelGapProb)
+        gap(1 + rng.nextInt(blanking.maxPixelGap max 1))
       i += 1
       if ((i & 0xffff) == 0) progress(i)
     }
@@ -190,8 +220,17 @@ object CoreSim {
 
   /** What the monitor saw, with the core's counters now. */
   def result(dut: OrbCore, monitor: Monitor): RtlResult =
-    RtlResult(monitor.events.toSeq, counters(dut), dut.io.status.corners.toLong, monitor.cycles, monitor.featureStream.toSeq,
-      dut.io.status.features.toLong, dut.io.status.featureDrops.toLong, dut.io.status.deselected.toLong, monitor.engineRuns.toSeq)
+    RtlResult(
+      monitor.events.toSeq,
+      counters(dut),
+      dut.io.status.corners.toLong,
+      monitor.cycles,
+      monitor.featureStream.toSeq,
+      dut.io.status.features.toLong,
+      dut.io.status.featureDrops.toLong,
+      dut.io.status.deselected.toLong,
+      monitor.engineRuns.toSeq
+    )
 
   /** One complete run from reset: returns what the core emitted and its counters. */
   def run(dut: OrbCore, beats: Seq[Beat], p: CornerParams, blanking: Blanking, seed: Long): RtlResult = {

@@ -12,7 +12,9 @@ object Scoreboard {
     * the first emitted item that is not the model's next (out of order, or not the model's at all), if any. */
   def notAnOrderedSubset[T](model: Seq[T], emitted: Seq[T]): Option[T] = {
     var rest = model.toList
-    emitted.find { e => rest = rest.dropWhile(_ != e); val missing = rest.isEmpty; if (!missing) rest = rest.tail; missing }
+    emitted.find { e =>
+      rest = rest.dropWhile(_ != e); val missing = rest.isEmpty; if (!missing) rest = rest.tail; missing
+    }
   }
 
   /** The first place where two sequences differ (an item, or one ending first), if any. */
@@ -46,14 +48,23 @@ object Scoreboard {
 
   /** Model and RTL feature streams (features and frame ends) compared; on a difference both feature lists are
     * dumped (`dumpFeatures`). */
-  def compareFeatureStreams(name: String, model: Seq[Either[FrameEnd, Feature]], rtl: Seq[Either[FrameEnd, Feature]],
-                            image: Option[GrayImage] = None): Option[String] =
+  def compareFeatureStreams(
+      name: String,
+      model: Seq[Either[FrameEnd, Feature]],
+      rtl: Seq[Either[FrameEnd, Feature]],
+      image: Option[GrayImage] = None
+  ): Option[String] =
     describe(name, "feature stream items", model, rtl).map { msg =>
       def features(s: Seq[Either[FrameEnd, Feature]]) = s.collect { case Right(f) => f }
       s"$msg; dumped to ${dumpFeatures(name, features(model), features(rtl), image)}"
     }
 
-  def compare(name: String, model: Seq[CoreEvent], rtl: Seq[CoreEvent], image: Option[GrayImage] = None): Option[String] = {
+  def compare(
+      name: String,
+      model: Seq[CoreEvent],
+      rtl: Seq[CoreEvent],
+      image: Option[GrayImage] = None
+  ): Option[String] = {
     val firstDiff = firstDifference(model, rtl) match {
       case None => return None
       case Some(i) => i
@@ -63,10 +74,16 @@ object Scoreboard {
     writeCsv(new File(dir, "rtl.csv"), rtl)
     image.foreach { img =>
       def corners(es: Seq[CoreEvent]) = es.collect { case CornerEvent(c) => c }
-      Draw.corners(img, corners(model), corners(rtl)).foreach(javax.imageio.ImageIO.write(_, "png", new File(dir, "corners.png")))
+      Draw.corners(img, corners(model), corners(rtl)).foreach(javax.imageio.ImageIO.write(
+        _,
+        "png",
+        new File(dir, "corners.png")
+      ))
     }
-    Some(s"$name: model emitted ${model.size} events, RTL ${rtl.size}; first difference at event $firstDiff: " +
-      s"model ${model.lift(firstDiff).getOrElse("-")} vs RTL ${rtl.lift(firstDiff).getOrElse("-")}; dumped to ${dir.getPath}")
+    Some(
+      s"$name: model emitted ${model.size} events, RTL ${rtl.size}; first difference at event $firstDiff: " +
+        s"model ${model.lift(firstDiff).getOrElse("-")} vs RTL ${rtl.lift(firstDiff).getOrElse("-")}; dumped to ${dir.getPath}"
+    )
   }
 
   /** Both feature lists as CSV (x, y, bin, score, descriptor) under `dumpDir/name/`, with the picture of their
@@ -75,11 +92,18 @@ object Scoreboard {
     val dir = dumpDirOf(name)
     for ((file, fs) <- Seq("model_features.csv" -> model, "rtl_features.csv" -> rtl)) {
       val w = new PrintWriter(new File(dir, file))
-      try { w.println("x,y,bin,score,descriptor"); fs.foreach(f => w.println(s"${f.x},${f.y},${f.bin},${f.score},${f.hex}")) }
-      finally w.close()
+      try {
+        w.println("x,y,bin,score,descriptor"); fs.foreach(f => w.println(s"${f.x},${f.y},${f.bin},${f.score},${f.hex}"))
+      } finally w.close()
     }
     def corners(fs: Seq[Feature]) = fs.map(f => Corner(f.x, f.y, f.score))
-    image.foreach(img => Draw.corners(img, corners(model), corners(rtl)).foreach(javax.imageio.ImageIO.write(_, "png", new File(dir, "features.png"))))
+    image.foreach(img =>
+      Draw.corners(img, corners(model), corners(rtl)).foreach(javax.imageio.ImageIO.write(
+        _,
+        "png",
+        new File(dir, "features.png")
+      ))
+    )
     dir
   }
 
@@ -99,7 +123,8 @@ object Scoreboard {
 object Csv {
   def write(f: File)(body: PrintWriter => Unit): Unit = {
     val w = new PrintWriter(f)
-    try body(w) finally w.close()
+    try body(w)
+    finally w.close()
   }
 
   /** `live_x,live_y,key_x,key_y,distance`, in the order given */
@@ -112,13 +137,20 @@ object Csv {
 /** Tiny drawing helpers for debug pictures (no plotting library needed for crosses on an image). */
 object Draw {
   import java.awt.image.BufferedImage
+
   /** Model corners as green crosses, RTL corners as red squares: where they agree both show. */
   def corners(img: GrayImage, model: Seq[Corner], rtl: Seq[Corner]): Option[BufferedImage] = {
     val out = new BufferedImage(img.width, img.height, BufferedImage.TYPE_INT_RGB)
-    for (y <- 0 until img.height; x <- 0 until img.width) { val v = img(x, y) / 2; out.setRGB(x, y, (v << 16) | (v << 8) | v) }
-    def put(x: Int, y: Int, rgb: Int): Unit = if (x >= 0 && y >= 0 && x < img.width && y < img.height) out.setRGB(x, y, rgb)
+    for (y <- 0 until img.height; x <- 0 until img.width) {
+      val v = img(x, y) / 2; out.setRGB(x, y, (v << 16) | (v << 8) | v)
+    }
+    def put(x: Int, y: Int, rgb: Int): Unit =
+      if (x >= 0 && y >= 0 && x < img.width && y < img.height) out.setRGB(x, y, rgb)
     for (c <- model; d <- -3 to 3) { put(c.x + d, c.y, 0x00ff00); put(c.x, c.y + d, 0x00ff00) }
-    for (c <- rtl; d <- -2 to 2) { put(c.x + d, c.y - 2, 0xff0000); put(c.x + d, c.y + 2, 0xff0000); put(c.x - 2, c.y + d, 0xff0000); put(c.x + 2, c.y + d, 0xff0000) }
+    for (c <- rtl; d <- -2 to 2) {
+      put(c.x + d, c.y - 2, 0xff0000); put(c.x + d, c.y + 2, 0xff0000); put(c.x - 2, c.y + d, 0xff0000);
+      put(c.x + 2, c.y + d, 0xff0000)
+    }
     Some(out)
   }
 }

@@ -11,9 +11,16 @@ import scala.util.Random
 
 /** What `OrbTop` did in one run: every item of its internal feature stream (as the matcher consumed it), every
   * correspondence the consumer took, the per-stage values for tracing, and its registers at the end. */
-final case class TopResult(featureStream: Seq[Either[FrameEnd, Feature]], correspondences: Seq[Correspondence],
-                           corners: Seq[Corner], oriented: Seq[TopSim.Oriented], scans: Seq[TopSim.Scan],
-                           registers: Map[String, Long], cycles: Long, pixels: Long) {
+final case class TopResult(
+    featureStream: Seq[Either[FrameEnd, Feature]],
+    correspondences: Seq[Correspondence],
+    corners: Seq[Corner],
+    oriented: Seq[TopSim.Oriented],
+    scans: Seq[TopSim.Scan],
+    registers: Map[String, Long],
+    cycles: Long,
+    pixels: Long
+) {
   def features: Seq[Feature] = featureStream.collect { case Right(f) => f }
   def register(name: String): Long = registers(name)
 }
@@ -21,8 +28,10 @@ final case class TopResult(featureStream: Seq[Either[FrameEnd, Feature]], corres
 /** Builds and drives the Verilator model of `OrbTop`: pixels in, Avalon-MM register accesses, a consumer of
   * correspondences with optional random back-pressure. */
 object TopSim {
+
   /** A corner after the orientation unit: moments and bin. */
   final case class Oriented(x: Int, y: Int, m10: Long, m01: Long, bin: Int)
+
   /** A live feature's scan as the matcher decided it: best entry (store index, position), distance, second best. */
   final case class Scan(liveX: Int, liveY: Int, bestIndex: Int, keyX: Int, keyY: Int, best: Int, second: Int)
 
@@ -77,8 +86,7 @@ object TopSim {
         if (f.end.now.toBoolean) featureStream += Left(FrameEnd(f.end.info.ok.toBoolean, f.end.info.keyframe.toBoolean))
         else {
           val bits = f.descriptor.toBigInt
-          featureStream += Right(Feature(f.x.toInt, f.y.toInt, f.bin.toInt, f.score.toLong,
-            Feature.descriptorOf(bits)))
+          featureStream += Right(Feature(f.x.toInt, f.y.toInt, f.bin.toInt, f.score.toLong, Feature.descriptorOf(bits)))
         }
       }
       val c = dut.core.io.corners
@@ -89,12 +97,25 @@ object TopSim {
       val m = dut.matcher
       if (m.decide.done.toBoolean) {
         val a = m.compare.acc
-        scans += Scan(m.scan.live.x.toInt, m.scan.live.y.toInt, a.best.index.toInt, m.compare.accKey.x.toInt, m.compare.accKey.y.toInt,
-          a.best.distance.toInt, a.second.toInt)
+        scans += Scan(
+          m.scan.live.x.toInt,
+          m.scan.live.y.toInt,
+          a.best.index.toInt,
+          m.compare.accKey.x.toInt,
+          m.compare.accKey.y.toInt,
+          a.best.distance.toInt,
+          a.second.toInt
+        )
       }
       val out = dut.io.correspondences
       if (out.valid.toBoolean && out.ready.toBoolean)
-        correspondences += Correspondence(out.liveX.toInt, out.liveY.toInt, out.keyX.toInt, out.keyY.toInt, out.distance.toInt)
+        correspondences += Correspondence(
+          out.liveX.toInt,
+          out.liveY.toInt,
+          out.keyX.toInt,
+          out.keyY.toInt,
+          out.distance.toInt
+        )
       out.ready #= ready >= 1 || rng.nextDouble() < ready
     }
   }
@@ -113,13 +134,18 @@ object TopSim {
     bus.write(TARGET, corners.target.toLong)
     bus.write(HAMMING_THRESHOLD, p.hammingThreshold)
     bus.write(RATIO, p.ratio.getOrElse(0).toLong)
-    bus.write(CONTROL, (if (p.ratio.isDefined) 1 else 0) | (if (p.crossCheck) 2 else 0) | (if (corners.segmentThreshold.isDefined) 4 else 0))
+    bus.write(
+      CONTROL,
+      (if (p.ratio.isDefined) 1 else 0) | (if (p.crossCheck) 2 else 0) | (if (corners.segmentThreshold.isDefined) 4
+                                                                          else 0)
+    )
     (bus, new Monitor(dut, ready, rng))
   }
 
   /** Clocks for everything in flight to leave after the last pixel: descriptors, then at most a few hundred
     * scans of a full store and a cross-check sweep. */
-  def drainClocks(cfg: OrbConfig): Int = OrbCore.latency() + 4000 + 400 * cfg.matcher.clocksPerFeature + cfg.matcher.storeCapacity
+  def drainClocks(cfg: OrbConfig): Int =
+    OrbCore.latency() + 4000 + 400 * cfg.matcher.clocksPerFeature + cfg.matcher.storeCapacity
 
   /** Waits until the core has been idle (no feature, no scan, no correspondence) for `quiet` clocks, or `max`. */
   def drain(dut: OrbTop, monitor: Monitor, cfg: OrbConfig): Unit = {
@@ -135,12 +161,29 @@ object TopSim {
   }
 
   def result(dut: OrbTop, bus: Avalon, monitor: Monitor, pixels: Long): TopResult =
-    TopResult(monitor.featureStream.toSeq, monitor.correspondences.toSeq, monitor.corners.toSeq, monitor.oriented.toSeq,
-      monitor.scans.toSeq, registerNames.map { case (n, r) => n -> bus.read(r) }.toMap, monitor.cycles, pixels)
+    TopResult(
+      monitor.featureStream.toSeq,
+      monitor.correspondences.toSeq,
+      monitor.corners.toSeq,
+      monitor.oriented.toSeq,
+      monitor.scans.toSeq,
+      registerNames.map { case (n, r) => n -> bus.read(r) }.toMap,
+      monitor.cycles,
+      pixels
+    )
 
   /** One complete run from reset. */
-  def run(dut: OrbTop, cfg: OrbConfig, beats: Seq[Beat], corners: CornerParams, p: MatchParams, blanking: Blanking,
-          ready: Double, seed: Long, progress: Int => Unit = _ => ()): TopResult = {
+  def run(
+      dut: OrbTop,
+      cfg: OrbConfig,
+      beats: Seq[Beat],
+      corners: CornerParams,
+      p: MatchParams,
+      blanking: Blanking,
+      ready: Double,
+      seed: Long,
+      progress: Int => Unit = _ => ()
+  ): TopResult = {
     val rng = new Random(seed)
     val (bus, monitor) = start(dut, corners, p, ready, rng)
     CoreSim.drivePixels(dut.io.pixels, dut.clockDomain, beats, blanking, rng, progress)

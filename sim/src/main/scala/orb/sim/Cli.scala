@@ -6,6 +6,7 @@ import orb.model.GrayImage
 /** What the host tools share around `orb.CommandLine`: `--help`, the exit on a usage error, image loading, and the
   * command line of the fidelity apps (`[--threshold T] [--bins N,..] [IMAGE ...]`). */
 object Cli {
+
   /** Runs an app: `--help` prints `usage`; a usage error is one line on stderr and exit status 2. */
   def main(app: String, usage: String, args: Seq[String])(body: => Unit): Unit =
     if (args.contains("--help")) println(usage)
@@ -31,12 +32,18 @@ object Cli {
     }
     val bins = CommandLine.valued[Fidelity]("--bins") { (o, v) =>
       o.copy(bins = v.split(",").toSeq.map { s =>
-        s.trim.toIntOption.filter(n => n >= 8 && n % 8 == 0).getOrElse(CommandLine.fail(s"--bins takes multiples of 8, not '$s'"))
+        s.trim.toIntOption.filter(n => n >= 8 && n % 8 == 0).getOrElse(CommandLine.fail(
+          s"--bins takes multiples of 8, not '$s'"
+        ))
       })
     }
     val opts = if (withBins) Seq(threshold, bins) else Seq(threshold)
-    val o = CommandLine.parse(args, Fidelity(defaultThreshold, Seq(defaultBins), Nil), opts,
-      positional = Some((o: Fidelity, image: String) => o.copy(images = o.images :+ image)))
+    val o = CommandLine.parse(
+      args,
+      Fidelity(defaultThreshold, Seq(defaultBins), Nil),
+      opts,
+      positional = Some((o: Fidelity, image: String) => o.copy(images = o.images :+ image))
+    )
     if (o.images.nonEmpty) o
     else {
       val pngs = Option(new java.io.File("data").listFiles()).toSeq.flatten.map(_.getPath).filter(_.endsWith(".png"))

@@ -7,14 +7,23 @@ import orb.model._
   * (Sobel, sepFilter2D with the binomial kernel, det - k tr^2 in doubles), and how its corners compare with
   * OpenCV's cornerHarris (box window). */
 object HarrisFidelity {
-  final case class Figures(image: String, width: Int, height: Int, corners: Int, floatCorners: Int,
-                           correlation: Double, strongPixels: Int, maxRelErrStrong: Double,
-                           /** model corners with a float-reference corner within 1 px */
-                           matchedWithin1: Double,
-                           /** float corners with a model corner within 1 px */
-                           recallWithin1: Double,
-                           /** model corners with a cornerHarris corner (same count, strongest first) within 1 / 2 px */
-                           cornerHarrisWithin1: Double, cornerHarrisWithin2: Double)
+  final case class Figures(
+      image: String,
+      width: Int,
+      height: Int,
+      corners: Int,
+      floatCorners: Int,
+      correlation: Double,
+      strongPixels: Int,
+      maxRelErrStrong: Double,
+      /** model corners with a float-reference corner within 1 px */
+      matchedWithin1: Double,
+      /** float corners with a model corner within 1 px */
+      recallWithin1: Double,
+      /** model corners with a cornerHarris corner (same count, strongest first) within 1 / 2 px */
+      cornerHarrisWithin1: Double,
+      cornerHarrisWithin2: Double
+  )
 
   /** The float reference response R (same units as the model's R: window sums divided by 2^windowShift). */
   def floatResponse(img: GrayImage, cfg: HarrisConfig): Array[Double] = {
@@ -58,7 +67,10 @@ object HarrisFidelity {
     val strong = inner.filter(i => ref(i) > strongLevel)
     val maxRel = if (strong.isEmpty) 0.0 else strong.map(i => math.abs(model.data(i) - ref(i)) / ref(i)).max
 
-    val corners = HarrisModel.corners(img, h, CornerParams(threshold, None)).map(c => (c.x, c.y)) // Harris maxima: what cornerHarris gives
+    val corners =
+      HarrisModel.corners(img, h, CornerParams(threshold, None)).map(c =>
+        (c.x, c.y)
+      ) // Harris maxima: what cornerHarris gives
     val floatScore = ref.map(r => math.max(0.0, r / (1L << h.scoreShift)))
     val floatCorners = suppress(w, ht, floatScore, threshold.toDouble, h.border)
     val fset = floatCorners.toSet; val mset = corners.toSet
@@ -67,9 +79,22 @@ object HarrisFidelity {
 
     // cornerHarris with a 7x7 box window: its units differ, so compare the same number of strongest maxima.
     val box = OpenCv.cornerHarrisMap(OpenCv.toMat(img), 7, h.k)
-    val boxCorners = suppress(w, ht, box, 0.0, h.border).sortBy { case (x, y) => -box(y * w + x) }.take(corners.size).toSet
-    Figures(name, w, ht, corners.size, floatCorners.size, correlation, strong.size, maxRel, matched, recall,
-      frac(corners.count(within(_, boxCorners, 1)), corners.size), frac(corners.count(within(_, boxCorners, 2)), corners.size))
+    val boxCorners =
+      suppress(w, ht, box, 0.0, h.border).sortBy { case (x, y) => -box(y * w + x) }.take(corners.size).toSet
+    Figures(
+      name,
+      w,
+      ht,
+      corners.size,
+      floatCorners.size,
+      correlation,
+      strong.size,
+      maxRel,
+      matched,
+      recall,
+      frac(corners.count(within(_, boxCorners, 1)), corners.size),
+      frac(corners.count(within(_, boxCorners, 2)), corners.size)
+    )
   }
 
   private def frac(a: Int, b: Int): Double = if (b == 0) 1.0 else a.toDouble / b
@@ -80,7 +105,8 @@ object HarrisFidelity {
     sab / math.sqrt(saa * sbb)
   }
 
-  def header: String = f"${"image"}%-18s ${"size"}%9s ${"corners"}%7s ${"float"}%6s ${"corr"}%9s ${"strong px"}%9s ${"max rel err"}%11s ${"<=1px"}%7s ${"recall"}%7s ${"cH<=1px"}%7s ${"cH<=2px"}%7s"
+  def header: String =
+    f"${"image"}%-18s ${"size"}%9s ${"corners"}%7s ${"float"}%6s ${"corr"}%9s ${"strong px"}%9s ${"max rel err"}%11s ${"<=1px"}%7s ${"recall"}%7s ${"cH<=1px"}%7s ${"cH<=2px"}%7s"
   def row(f: Figures): String =
     f"${f.image}%-18s ${s"${f.width}x${f.height}"}%9s ${f.corners}%7d ${f.floatCorners}%6d ${f.correlation}%9.7f ${f.strongPixels}%9d ${f.maxRelErrStrong * 100}%10.3f%% ${f.matchedWithin1 * 100}%6.1f%% ${f.recallWithin1 * 100}%6.1f%% ${f.cornerHarrisWithin1 * 100}%6.1f%% ${f.cornerHarrisWithin2 * 100}%6.1f%%"
 
@@ -90,7 +116,9 @@ object HarrisFidelity {
     val cfg = OrbConfig.default
     Cli.main("orb.sim.HarrisFidelity", usage, args.toSeq) {
       val o = Cli.fidelity(args.toSeq, cfg.harris.defaultThreshold, cfg.descriptor.angleBins, withBins = false)
-      println(s"Harris model vs float reference (OpenCV Sobel + sepFilter2D, doubles), threshold ${o.threshold}, border ${cfg.harris.border}")
+      println(
+        s"Harris model vs float reference (OpenCV Sobel + sepFilter2D, doubles), threshold ${o.threshold}, border ${cfg.harris.border}"
+      )
       println(header)
       for (f <- o.images) println(row(measure(new java.io.File(f).getName, Cli.load(f), cfg, o.threshold)))
     }

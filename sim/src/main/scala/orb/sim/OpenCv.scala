@@ -20,7 +20,11 @@ object OpenCv {
   def toGray(m: Mat): GrayImage = {
     require(m.depth() == CV_8U && m.channels() == 1)
     val idx = m.createIndexer[UByteIndexer]()
-    val img = GrayImage(m.cols(), m.rows(), Array.tabulate(m.rows() * m.cols())(i => idx.get((i / m.cols()).toLong, (i % m.cols()).toLong)))
+    val img = GrayImage(
+      m.cols(),
+      m.rows(),
+      Array.tabulate(m.rows() * m.cols())(i => idx.get((i / m.cols()).toLong, (i % m.cols()).toLong))
+    )
     idx.release()
     img
   }
@@ -42,18 +46,24 @@ object OpenCv {
     m
   }
 
-  def sobel(src: Mat, dx: Int, dy: Int): Mat = { val d = new Mat(); Sobel(src, d, CV_64F, dx, dy, 3, 1.0, 0.0, BORDER_DEFAULT); d }
+  def sobel(src: Mat, dx: Int, dy: Int): Mat = {
+    val d = new Mat(); Sobel(src, d, CV_64F, dx, dy, 3, 1.0, 0.0, BORDER_DEFAULT); d
+  }
   def mul(a: Mat, b: Mat): Mat = { val d = new Mat(); multiply(a, b, d); d }
+
   /** Separable filter, same kernel both ways, not normalised. */
   def separable(src: Mat, kernel: Seq[Double]): Mat = {
     val d = new Mat(); val k = row(kernel)
     sepFilter2D(src, d, CV_64F, k, k, new Point(-1, -1), 0.0, BORDER_DEFAULT); d
   }
+
   /** OpenCV's FAST-9 corners at threshold t, with or without its suppression on the FAST score. */
   def fast(img: GrayImage, t: Int, suppress: Boolean): Seq[(Int, Int)] = {
     val kp = new KeyPointVector()
     FastFeatureDetector.create(t, suppress, FastFeatureDetector.TYPE_9_16).detect(toMat(img), kp)
-    (0 until kp.size.toInt).map { i => val p = kp.get(i.toLong).pt(); (math.round(p.x), math.round(p.y)) }
+    (0 until kp.size.toInt).map { i =>
+      val p = kp.get(i.toLong).pt(); (math.round(p.x), math.round(p.y))
+    }
   }
 
   /** OpenCV's own Harris (box window of `block` pixels); response in its own units. */

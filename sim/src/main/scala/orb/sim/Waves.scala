@@ -15,17 +15,23 @@ object Waves {
       "1 camera pixels" -> flat(top.io.pixels),
       "2 frame tracker" -> flat(top.core.tracker.io.tracked),
       "3 Harris corners" -> (flat(top.core.harris.io.corners) ++ flat(top.core.harris.io.control)),
-      "4 feature budget (selected corners)" -> (flat(top.core.budget.io.selected) ++ Seq(top.core.budget.io.deselected)),
+      "4 feature budget (selected corners)" -> (flat(top.core.budget.io.selected) ++ Seq(
+        top.core.budget.io.deselected
+      )),
       "5 orientation" -> flat(top.core.orientation.io.oriented),
       "6 descriptors (feature stream)" -> flat(top.core.io.features),
-      "7 matcher" -> (Seq(m.activity, m.decide.done) ++ flat(m.compare.acc) ++ flat(m.scan.live).filterNot(_.getBitsWidth == 256)),
+      "7 matcher" -> (Seq(m.activity, m.decide.done) ++ flat(m.compare.acc) ++ flat(m.scan.live).filterNot(
+        _.getBitsWidth == 256
+      )),
       "8 correspondences" -> flat(top.io.correspondences),
-      "9 registers (Avalon-MM)" -> flat(top.io.ctrl))
+      "9 registers (Avalon-MM)" -> flat(top.io.ctrl)
+    )
   }
 
   /** TOP.OrbTop.core.harris.io_corners_valid and the like. */
   def fstName(s: BaseType): String = {
-    val path = if (s.component.parent == null) Nil else s.component.parents().drop(1).map(_.getName()) :+ s.component.getName()
+    val path =
+      if (s.component.parent == null) Nil else s.component.parents().drop(1).map(_.getName()) :+ s.component.getName()
     val scope = ("TOP" +: "OrbTop" +: path).mkString(".")
     val range = if (s.getBitsWidth > 1) s"[${s.getBitsWidth - 1}:0]" else ""
     s"$scope.${s.getName()}$range"

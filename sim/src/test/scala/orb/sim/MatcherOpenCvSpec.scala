@@ -25,12 +25,15 @@ class MatcherOpenCvSpec extends AnyFunSuite {
   def cvMatch(live: Seq[Feature], key: Seq[Feature], crossCheck: Boolean): Seq[(Int, Int, Int)] = {
     val out = new DMatchVector()
     new BFMatcher(NORM_HAMMING, crossCheck).`match`(mat(live), mat(key), out)
-    (0 until out.size().toInt).map { i => val m = out.get(i.toLong); (m.queryIdx(), m.trainIdx(), m.distance().round) }
+    (0 until out.size().toInt).map { i =>
+      val m = out.get(i.toLong); (m.queryIdx(), m.trainIdx(), m.distance().round)
+    }
   }
 
   test("nearest neighbours and cross-check agree with OpenCV's BFMatcher") {
     val key = features("graf1.png"); val live = features("graf3.png")
-    val mcfg = MatcherConfig(storeCapacity = key.size, comparators = 1) // the whole keyframe; lanes do not matter to the model
+    val mcfg =
+      MatcherConfig(storeCapacity = key.size, comparators = 1) // the whole keyframe; lanes do not matter to the model
     val store = MatcherModel.store(key, mcfg)
     // Plain nearest neighbour: same distance for every live feature, same partner wherever it is unique.
     val cv = cvMatch(live, key, crossCheck = false)
@@ -41,12 +44,15 @@ class MatcherOpenCvSpec extends AnyFunSuite {
     assert(unique.forall(i => cv(i)._2 == ours(i)._1), "partners where the best is unique")
     // Cross-check: the same mutual pairs, up to ties.
     val pos = key.zipWithIndex.map { case (f, j) => (f.x, f.y) -> j }.toMap
-    val mine = MatcherModel.matchFrame(store, live, MatchParams(hammingThreshold = 256, crossCheck = true, ratio = None), mcfg)
-      .map(c => (live.indexWhere(f => f.x == c.liveX && f.y == c.liveY), pos((c.keyX, c.keyY)))).toSet
+    val mine =
+      MatcherModel.matchFrame(store, live, MatchParams(hammingThreshold = 256, crossCheck = true, ratio = None), mcfg)
+        .map(c => (live.indexWhere(f => f.x == c.liveX && f.y == c.liveY), pos((c.keyX, c.keyY)))).toSet
     val theirs = cvMatch(live, key, crossCheck = true).map(m => (m._1, m._2)).toSet
     val agree = (mine intersect theirs).size.toDouble / (mine union theirs).size
-    println(f"[orb] matcher vs BFMatcher: ${live.size} live x ${key.size} keyframe features, ${unique.size} unique nearest; " +
-      f"cross-check: ours ${mine.size}, OpenCV ${theirs.size}, agreement ${agree * 100}%.2f%%")
+    println(
+      f"[orb] matcher vs BFMatcher: ${live.size} live x ${key.size} keyframe features, ${unique.size} unique nearest; " +
+        f"cross-check: ours ${mine.size}, OpenCV ${theirs.size}, agreement ${agree * 100}%.2f%%"
+    )
     assert(agree >= 0.99, s"cross-check agreement $agree")
   }
 }
