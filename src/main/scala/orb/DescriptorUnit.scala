@@ -193,7 +193,7 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
 
   /** Hands the queue's head to the engine. The decision is taken on registered values: the rows since the head's
     * patch was complete are registered first, the row test on them is registered next, and the head starts a clock
-    * later unless it changed or a row started in between. */
+    * later unless it changed or a row starts in between. */
   val dispatch = new Area {
     // the queue's RAM through a register both ways (no decision reaches its read pointer), then the lookups, each
     // step with its valid and ready registered (no chain of readies from the decision back to the queue): a step
@@ -211,16 +211,15 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
     val dataOk = row.active && row.frame === c.frameTag
     // the engine free for a corner, a clock late (never right after a start, which takes the slot)
     val free = Reg(Bool()) init False
-    val startNext = RegNext(due && !late && dataOk && free && !head.fire) init False
-    val refuseNext = RegNext(due && (late || !dataOk) && !head.fire) init False
+    // the decisions registered; a row start in the clock of a start (known a clock ahead) holds it
+    val start = RegNext(due && !late && dataOk && free && !head.fire && !ring.startsRow) init False
+    val refuse = RegNext(due && (late || !dataOk) && !head.fire) init False
     // the newest patch row (cy + 18) is in the slot of raw row cy + 21, `since + 1` rows back; the oldest 36 more
     val back = ring.slot.resize(slotWidth + 2).asSInt - since.resize(slotWidth + 2) - S(patchRows, slotWidth + 2 bits)
     val base = RegNext(Mux(back.msb, back + S(rows, slotWidth + 2 bits), back).asUInt.resize(slotWidth))
     val leftWidth = log2Up(d.slackRows + 1)
     val rowsLeft = RegNext((S(d.slackRows, leftWidth + 1 bits) - since.resize(leftWidth + 1)).asUInt.resize(leftWidth))
-    val start = startNext && !ring.rowStart
     free := engine.canBegin && !start
-    val refuse = refuseNext
     // A frame end leaves when every corner before it has: the engine idle.
     val marker = head.valid && c.end.now && engine.idle
     head.ready := start || refuse || (marker && output.ready)

@@ -7,34 +7,9 @@ import spinal.core._
 import spinal.core.sim._
 import spinal.lib._
 
-/** Tracker, a 31-row shared line buffer, the Harris detector, the feature budget and the orientation unit. */
-class OrientationHarness(c: OrbConfig) extends Component {
-  val rows = 2 * OrbDescriptorConfig.patchRadius + 1
-  val io = new Bundle {
-    val pixels = slave Flow (PixelBeat())
-    val control = in(CornerParamsHw())
-    val oriented = master Flow (OrientedCorner(c.frame, c.harris, c.descriptor))
-    val dropped = out UInt (32 bits)
-  }
-  val tracker = new FrameTracker(c.frame)
-  val lines = new LineBuffer(c.frame, rows)
-  val harris = new HarrisDetector(c.frame, c.harris, rows)
-  val budget = new FeatureBudget(c)
-  val orientation = new OrientationUnit(c.frame, c.harris, c.descriptor, rows)
-  tracker.io.pixels << io.pixels
-  lines.io.pixels << tracker.io.tracked
-  harris.io.columns << lines.io.columns
-  harris.io.geometry := tracker.io.geometry
-  harris.io.control := io.control
-  orientation.io.columns << lines.io.columns
-  budget.attach(lines.io.columns, harris, tracker.io.geometry, io.control.target)
-  orientation.io.corners << budget.io.selected
-  io.oriented << orientation.io.oriented
-  io.dropped := orientation.io.dropped
-}
-
-/** Tracker, line buffer, Harris detector and the orientation unit with no budget in between: every corner goes on. */
-class DenseOrientationHarness(c: OrbConfig) extends Component {
+/** Tracker, a 31-row shared line buffer, the Harris detector, the feature budget (unless `budgeted` is false: then
+  * every corner goes on) and the orientation unit. */
+class OrientationHarness(c: OrbConfig, budgeted: Boolean = true) extends Component {
   val rows = 2 * OrbDescriptorConfig.patchRadius + 1
   val io = new Bundle {
     val pixels = slave Flow (PixelBeat())
@@ -52,7 +27,13 @@ class DenseOrientationHarness(c: OrbConfig) extends Component {
   harris.io.geometry := tracker.io.geometry
   harris.io.control := io.control
   orientation.io.columns << lines.io.columns
-  orientation.io.corners << harris.io.corners
+  if (budgeted) {
+    val budget = new FeatureBudget(c)
+    budget.attach(lines.io.columns, harris, tracker.io.geometry, io.control.target)
+    orientation.io.corners << budget.io.selected
+  } else {
+    orientation.io.corners << harris.io.corners
+  }
   io.oriented << orientation.io.oriented
   io.dropped := orientation.io.dropped
 }
@@ -75,7 +56,7 @@ class OrientationSpec extends AnyFunSuite {
 
   /** a queue deep enough for every Harris corner of the test frames, with no budget in front */
   val denseConfig: OrbConfig = config.copy(descriptor = config.descriptor.copy(cornerQueueDepth = 4096))
-  lazy val dense = CoreSim.simConfig("simWorkspace/test").compile(new DenseOrientationHarness(denseConfig))
+  lazy val dense = CoreSim.simConfig("simWorkspace/test").compile(new OrientationHarness(denseConfig, budgeted = false))
 
   def check(
       name: String,

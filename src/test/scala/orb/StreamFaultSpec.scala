@@ -16,15 +16,21 @@ class StreamFaultSpec extends AnyFunSuite {
   lazy val clean: Seq[Corner] = HarrisModel.corners(a, config.harris, cornerParams)
 
   def lineStart(line: Int) = line * w
+
   /** The frame of `a` with its `line` cut to `len` pixels. */
   def shortLine(line: Int, len: Int): Seq[Beat] = {
     val f = Beat.frame(a).toVector
-    f.take(lineStart(line) + len - 1) ++ Seq(f(lineStart(line) + len - 1).copy(eol = true)) ++ f.drop(lineStart(line + 1))
+    f.take(lineStart(line) + len - 1) ++ Seq(f(lineStart(line) + len - 1).copy(eol = true)) ++ f.drop(
+      lineStart(line + 1)
+    )
   }
+
   /** The frame of `a` with `extra` more pixels before the end of `line`. */
   def longLine(line: Int, extra: Int): Seq[Beat] = {
     val f = Beat.frame(a).toVector
-    f.take(lineStart(line) + w - 1) ++ Seq.fill(extra)(Beat(77, sof = false, eol = false)) ++ f.drop(lineStart(line) + w - 1)
+    f.take(lineStart(line) + w - 1) ++ Seq.fill(extra)(Beat(77, sof = false, eol = false)) ++ f.drop(
+      lineStart(line) + w - 1
+    )
   }
   def missingEol(line: Int): Seq[Beat] = {
     val f = Beat.frame(a).toVector
@@ -46,30 +52,54 @@ class StreamFaultSpec extends AnyFunSuite {
     out.toSeq
   }
 
-  def runBoth(name: String, frames: Seq[Seq[Beat]]): (CoreResult, RtlResult) = {
-    val beats = frames.flatten
-    val model = CoreModel.run(config, beats, cornerParams)
+  /** Model and RTL on `beats` (frames of `img`): every corner, frame end, counter, feature, drop and deselection
+    * equal, and every corner a feature, deselected or a counted drop. */
+  def runBoth(
+      name: String,
+      beats: Seq[Beat],
+      img: GrayImage = a,
+      params: CornerParams = cornerParams,
+      blanking: Blanking = Blanking.random,
+      simSeed: Option[Long] = None
+  ): (CoreResult, RtlResult) = {
+    val model = CoreModel.run(config, beats, params)
     var rtl: RtlResult = null
-    core.doSim(name, seed.toInt) { dut => rtl = CoreSim.run(dut, beats, cornerParams, Blanking.random, rng(name).nextLong()) }
-    Scoreboard.compare(name, CoreEvents.of(model), rtl.events, Some(a)).foreach(msg => fail(msg))
+    core.doSim(name, seed.toInt) { dut =>
+      rtl = CoreSim.run(dut, beats, params, blanking, simSeed.getOrElse(rng(name).nextLong()))
+    }
+    Scoreboard.compare(name, CoreEvents.of(model), rtl.events, Some(img)).foreach(msg => fail(msg))
     assert(rtl.counters == model.counters, s"$name: counters")
-    assert(rtl.featureStream == model.featureStream, s"$name: feature output (model ${model.features.size}, RTL ${rtl.features.size})")
-    assert(rtl.deselected == model.deselected && rtl.featureDrops == model.featureDrops, s"$name: deselected and dropped corners")
-    assert(rtl.features.size + rtl.featureDrops + rtl.deselected == rtl.corners.size, s"$name: every corner is a feature, deselected or a counted drop")
-    println(s"[orb] $name: ${rtl.counters}, frame ends ${rtl.frameEnds.map(e => if (e.ok) "ok" else "FAULT").mkString(" ")}")
+    assert(
+      rtl.featureStream == model.featureStream,
+      s"$name: feature output (model ${model.features.size}, RTL ${rtl.features.size})"
+    )
+    assert(
+      rtl.deselected == model.deselected && rtl.featureDrops == model.featureDrops,
+      s"$name: deselected and dropped corners"
+    )
+    assert(
+      rtl.features.size + rtl.featureDrops + rtl.deselected == rtl.corners.size,
+      s"$name: every corner is a feature, deselected or a counted drop"
+    )
+    println(
+      s"[orb] $name: ${rtl.counters}, frame ends ${rtl.frameEnds.map(e => if (e.ok) "ok" else "FAULT").mkString(" ")}"
+    )
     (model, rtl)
   }
 
   /** A processed good frame, a faulty one, a re-learning one, a good one. */
   def faultCase(name: String, faulty: Seq[Beat], badLines: Long, faultyEnd: Boolean = true): Unit = {
-    val (_, rtl) = runBoth(name, Seq(good, good, faulty, good, good))
+    val (_, rtl) = runBoth(name, Seq(good, good, faulty, good, good).flatten)
     assert(rtl.counters == FrameCounters(frames = 5, badFrames = 1, badLines = badLines), name)
     val groups = perFrame(rtl.events)
     val expectedEnds = if (faultyEnd) Seq(true, false, true) else Seq(true, true, true)
     assert(groups.map(_._2.map(_.ok)) == expectedEnds.map(Some(_)), s"$name: frame ends")
     assert(groups.head._1 == clean && groups.last._1 == clean, s"$name: clean frames, and the frame after re-learning")
     val faultyCorners = groups(1)._1
-    assert(faultyCorners.forall(clean.contains), s"$name: a corner of the faulty frame that the clean image does not have")
+    assert(
+      faultyCorners.forall(clean.contains),
+      s"$name: a corner of the faulty frame that the clean image does not have"
+    )
     assert(faultyCorners.size < clean.size || !faultyEnd, s"$name: the fault should have cut the frame short")
   }
 
@@ -83,21 +113,23 @@ class StreamFaultSpec extends AnyFunSuite {
   }
   test("a start of frame in the middle of a line") { faultCase("sof-mid-frame", cut(50, 17), badLines = 1) }
 
-  test("a fault while many corners still wait for a descriptor engine: nothing from after the fault, drops counted and modelled") {
+  /** Pure Harris maxima (checkerboard crossings) of `img` through model and RTL, no blanking. */
+  def harrisMaxima(name: String, beats: Seq[Beat], img: GrayImage): (CoreResult, RtlResult) =
+    runBoth(name, beats, img, harrisOnly, Blanking.none, Some(seed))
+
+  test(
+    "a fault while many corners still wait for a descriptor engine: nothing from after the fault, drops counted and modelled"
+  ) {
     val dense = Patterns.checkerboard(240, 120, 6)
     val f = Beat.frame(dense).toVector
     val cut = 70 * 240 + 100 // a short line in row 70: corners of rows 40..48 are queued or in the engines then
     val faulty = f.take(cut) ++ Seq(f(cut).copy(eol = true)) ++ f.drop(71 * 240)
     val beats = f ++ f ++ faulty ++ f ++ f
-    val model = CoreModel.run(config, beats, harrisOnly) // checkerboard crossings: Harris maxima
-    var rtl: RtlResult = null
-    core.doSim("fault-while-waiting", seed.toInt) { dut => rtl = CoreSim.run(dut, beats, harrisOnly, Blanking.none, seed) }
-    Scoreboard.compare("fault-while-waiting", CoreEvents.of(model), rtl.events, Some(dense)).foreach(msg => fail(msg))
-    assert(rtl.featureStream == model.featureStream, s"feature output (model ${model.features.size}, RTL ${rtl.features.size})")
-    assert(rtl.featureDrops == model.featureDrops && rtl.deselected == model.deselected, "dropped and deselected corners as the model says")
-    assert(rtl.features.size + rtl.featureDrops + rtl.deselected == rtl.corners.size, "every corner is a feature, deselected or a counted drop")
+    val (_, rtl) = harrisMaxima("fault-while-waiting", beats, dense)
     assert(rtl.featureDrops > 0 && rtl.counters.badFrames == 1)
-    println(s"[orb] fault-while-waiting: ${rtl.corners.size} corners, ${rtl.features.size} features, ${rtl.deselected} deselected, ${rtl.featureDrops} counted drops")
+    println(
+      s"[orb] fault-while-waiting: ${rtl.corners.size} corners, ${rtl.features.size} features, ${rtl.deselected} deselected, ${rtl.featureDrops} counted drops"
+    )
   }
 
   test("a fault a few pixels into a band's emission row: RTL == model, every corner accounted for") {
@@ -111,28 +143,28 @@ class StreamFaultSpec extends AnyFunSuite {
     val cut = row * w + 10
     val faulty = f.take(cut) ++ Seq(f(cut).copy(eol = true)) ++ f.drop((row + 1) * w)
     val beats = f ++ faulty ++ f
-    val model = CoreModel.run(config, beats, harrisOnly)
-    var rtl: RtlResult = null
-    core.doSim("fault-in-emission", seed.toInt) { dut => rtl = CoreSim.run(dut, beats, harrisOnly, Blanking.none, seed) }
-    Scoreboard.compare("fault-in-emission", CoreEvents.of(model), rtl.events, Some(dense)).foreach(msg => fail(msg))
-    assert(rtl.featureStream == model.featureStream, s"feature output (model ${model.features.size}, RTL ${rtl.features.size})")
-    assert(rtl.featureDrops == model.featureDrops && rtl.deselected == model.deselected, "dropped and deselected corners as the model says")
+    val (model, rtl) = harrisMaxima("fault-in-emission", beats, dense)
     val band = (42 >> config.budget.bandShift) << config.budget.bandShift
     val emitted = model.budget.head._2.selected.count(c => c.y >= band && c.y < band + config.budget.cellHeight)
-    assert(emitted == config.budget.perCell * config.budget.cellsPerRow(w), s"the band's winners are selected in the faulty frame: $emitted")
-    assert(rtl.features.size + rtl.featureDrops + rtl.deselected == rtl.corners.size && rtl.featureDrops >= emitted)
-    println(s"[orb] fault-in-emission: ${rtl.features.size} features, ${rtl.featureDrops} counted drops, $emitted from the band being emitted")
+    assert(
+      emitted == config.budget.perCell * config.budget.cellsPerRow(w),
+      s"the band's winners are selected in the faulty frame: $emitted"
+    )
+    assert(rtl.featureDrops >= emitted)
+    println(
+      s"[orb] fault-in-emission: ${rtl.features.size} features, ${rtl.featureDrops} counted drops, $emitted from the band being emitted"
+    )
   }
 
   test("the very first frame, too wide for the line buffer, is never processed") {
     val wide = Beat.frame(GrayImage.tabulate(config.maxWidth + 3, 30)((x, y) => (x * 7 + y * 13) % 256))
-    val (_, rtl) = runBoth("first-too-wide", Seq(wide, good, good))
+    val (_, rtl) = runBoth("first-too-wide", Seq(wide, good, good).flatten)
     assert(rtl.counters == FrameCounters(frames = 3, badFrames = 1, badLines = 30))
     assert(rtl.corners == clean)
   }
 
   test("pixels before the first start of frame are ignored") {
-    val (_, rtl) = runBoth("stray-pixels", Seq(good.drop(100), good, good))
+    val (_, rtl) = runBoth("stray-pixels", Seq(good.drop(100), good, good).flatten)
     assert(rtl.counters == FrameCounters(frames = 2, badFrames = 0, badLines = 0))
     assert(rtl.corners == clean)
   }

@@ -26,29 +26,36 @@ class MatchCliSpec extends AnyFunSuite {
     val junk = new File(tmp, "junk.png"); Files.write(junk.toPath, "not an image".getBytes)
     val badH = new File(tmp, "bad.H.txt"); Files.write(badH.toPath, "1 0 0\n0 1".getBytes)
     val out = new File(tmp, "err").getPath
+
+    /** the pair and the output folder, then `more` */
+    def pair(more: String*): Seq[String] = Seq("--key", graf1, "--live", graf3, "--out", out) ++ more
     val cases = Seq(
       Seq("--key", graf1, "--live", graf3) -> "required",
       Seq("--key", "data/nope.png", "--live", graf3, "--out", out) -> "no such image file",
       Seq("--key", junk.getPath, "--live", graf3, "--out", out) -> "not a readable image",
       Seq("--key", big.getPath, "--live", graf3, "--out", out) -> "at most 1024x2047",
       Seq("--key", tiny.getPath, "--live", graf3, "--out", out) -> "at least 45x45",
-      Seq("--key", graf1, "--live", graf3, "--out", out, "--hamming", "300") -> "--hamming",
-      Seq("--key", graf1, "--live", graf3, "--out", out, "--ratio", "2.5") -> "--ratio",
-      Seq("--key", graf1, "--live", graf3, "--out", out, "--engine", "fpga") -> "--engine",
-      Seq("--key", graf1, "--live", graf3, "--out", out, "--trace", "3") -> "--trace",
-      Seq("--key", graf1, "--live", graf3, "--out", out, "--wave") -> "--wave needs --engine rtl",
-      Seq("--key", graf1, "--live", graf3, "--out", out, "--frobnicate") -> "unknown argument",
-      Seq("--key", graf1, "--live", graf3, "--out", out, "--hamming") -> "needs a value",
-      Seq("--key", graf1, "--live", graf3, "--out", out, "--homography", badH.getPath) -> "9 numbers",
-      Seq("--key", graf1, "--live", graf3, "--out", out, "--homography", "data/none.txt") -> "no such file",
-      Seq("--key", graf1, "--live", graf3, "--out", out, "--segment-threshold", "256") -> "--segment-threshold takes a whole number from 0 to 255",
-      Seq("--key", graf1, "--live", graf3, "--out", out, "--segment-threshold", "20", "--no-segment-test") -> "contradict",
-      Seq("--key", graf1, "--live", graf3, "--out", out, "--features", "70000") -> "--features takes a whole number from 0 to 65535",
-      Seq("--key", graf1, "--live", graf3, "--out", out, "--features", "many") -> "--features")
+      pair("--hamming", "300") -> "--hamming",
+      pair("--ratio", "2.5") -> "--ratio",
+      pair("--engine", "fpga") -> "--engine",
+      pair("--trace", "3") -> "--trace",
+      pair("--wave") -> "--wave needs --engine rtl",
+      pair("--frobnicate") -> "unknown argument",
+      pair("--hamming") -> "needs a value",
+      pair("--homography", badH.getPath) -> "9 numbers",
+      pair("--homography", "data/none.txt") -> "no such file",
+      pair("--segment-threshold", "256") -> "--segment-threshold takes a whole number from 0 to 255",
+      pair("--segment-threshold", "20", "--no-segment-test") -> "contradict",
+      pair("--features", "70000") -> "--features takes a whole number from 0 to 65535",
+      pair("--features", "many") -> "--features"
+    )
     for ((args, expected) <- cases) {
       val (status, err) = run(args: _*)
       assert(status == 2, s"${args.mkString(" ")}: status $status")
-      assert(err.linesIterator.size == 1 && err.startsWith("orb.sim.Match: ") && err.contains(expected), s"${args.mkString(" ")}: '$err'")
+      assert(
+        err.linesIterator.size == 1 && err.startsWith("orb.sim.Match: ") && err.contains(expected),
+        s"${args.mkString(" ")}: '$err'"
+      )
     }
   }
 
@@ -60,13 +67,24 @@ class MatchCliSpec extends AnyFunSuite {
     val live = lines(dir, "live_features.csv")
     assert(live.head == "x,y,angle_deg,score,descriptor" && live.tail.forall(_.split(",")(4).matches("[0-9a-f]{64}")))
     val summary = lines(dir, "summary.json").mkString("\n")
-    assert(summary.contains(s""""correspondences": ${cs.size - 1}""") && summary.contains(s""""features": ${live.size - 1}"""))
-    assert(summary.contains("\"inliers_3px\": 0.") && summary.contains("\"ratio\": 0.80") && summary.contains("\"segment_threshold\": 20"))
-    assert(live.size - 1 == 500 && lines(dir, "key_features.csv").size - 1 == 500, "the target, on images with more corners")
-    assert(summary.contains("\"target\": 500") && summary.contains("\"stream\": \"5 frames") && summary.contains("\"deselected\": "))
+    assert(summary.contains(s""""correspondences": ${cs.size - 1}""") && summary.contains(
+      s""""features": ${live.size - 1}"""
+    ))
+    assert(summary.contains("\"inliers_3px\": 0.") && summary.contains("\"ratio\": 0.80") && summary.contains(
+      "\"segment_threshold\": 20"
+    ))
+    assert(
+      live.size - 1 == 500 && lines(dir, "key_features.csv").size - 1 == 500,
+      "the target, on images with more corners"
+    )
+    assert(summary.contains("\"target\": 500") && summary.contains("\"stream\": \"5 frames") && summary.contains(
+      "\"deselected\": "
+    ))
     val few = new File(tmp, "model-100")
     assert(run("--key", graf1, "--live", graf3, "--out", few.getPath, "--features", "100")._1 == 0)
-    assert(lines(few, "live_features.csv").size - 1 == 100 && lines(few, "summary.json").mkString.contains("\"features\": 100"))
+    assert(lines(few, "live_features.csv").size - 1 == 100 && lines(few, "summary.json").mkString.contains(
+      "\"features\": 100"
+    ))
     val plain = new File(tmp, "model-harris")
     assert(run("--key", graf1, "--live", graf3, "--out", plain.getPath, "--no-segment-test")._1 == 0)
     assert(lines(plain, "summary.json").mkString("\n").contains("\"segment_threshold\": null"))
@@ -93,12 +111,14 @@ class MatchCliSpec extends AnyFunSuite {
     val names = lines(r, "wave.gtkw").filter(_.startsWith("TOP."))
     assert(names.size > 50)
     assume(scala.util.Try("fst2vcd --help".!(ProcessLogger(_ => ()))).isSuccess, "fst2vcd (gtkwave) is not installed")
-    val header = Seq("fst2vcd", fst.getPath).lazyLines_!(ProcessLogger(_ => ())).takeWhile(!_.contains("$enddefinitions"))
+    val header =
+      Seq("fst2vcd", fst.getPath).lazyLines_!(ProcessLogger(_ => ())).takeWhile(!_.contains("$enddefinitions"))
     var scope = List[String](); val declared = scala.collection.mutable.Set[String]()
     header.map(_.trim.split("\\s+").toSeq).foreach {
       case Seq("$scope", _, name, _*) => scope = scope :+ name
       case Seq("$upscope", _*) => scope = scope.init
-      case Seq("$var", _, _, _, name, rest @ _*) => declared += (scope :+ name).mkString(".") + rest.headOption.filter(_.startsWith("[")).getOrElse("")
+      case Seq("$var", _, _, _, name, rest @ _*) =>
+        declared += (scope :+ name).mkString(".") + rest.headOption.filter(_.startsWith("[")).getOrElse("")
       case _ =>
     }
     val missing = names.filterNot(declared)
