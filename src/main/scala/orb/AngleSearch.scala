@@ -6,7 +6,7 @@ import spinal.lib.misc.pipeline._
 
 /** The orientation bin of (m10, m01) without a divider, as `orb.model.OrbModel.angleBin`: fold into the first
   * octant (signs, swap so that b <= a), count the bin boundaries below the angle with a binary search, one
-  * comparison b 2^F >= a T_j per step, unfold. One corner per clock; latency `4 steps + 3`: a step looks up the
+  * comparison b 2^F >= a T_j per step, unfold. One corner per clock; latency `4 steps + 4`: a step looks up the
   * tangent it tries (into a register), multiplies a's two parts by it in two multiplier blocks (plain registers on
   * both sides of each product), adds the partial products and compares. */
 class AngleSearch(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) extends Component {
@@ -79,10 +79,13 @@ class AngleSearch(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) exten
     val take = c(TRY) && ((c(fold.B).resize(momentWidth + d.tanFracBits) |<< d.tanFracBits) >= c(PRODUCT))
     counts += c.insert(Mux(take, c(BEFORE) + step, c(BEFORE)))
   }
+  // the count unfolded over the octant's swap, registered, then over the quadrant's signs
   val unfold = new Area {
-    val u = at(4 * steps.size + 2)
-    val count = u(counts.last)
-    val q = Mux(u(fold.SWAP), U(2 * m, countWidth + 1 bits) - count, count.resize(countWidth + 1))
+    val swapped = at(4 * steps.size + 2)
+    val count = swapped(counts.last)
+    val Q = swapped.insert(Mux(swapped(fold.SWAP), U(2 * m, countWidth + 1 bits) - count, count.resize(countWidth + 1)))
+    val u = at(4 * steps.size + 3)
+    val q = u(Q)
     val n = d.angleBins
     val bin = UInt(d.binWidth + 1 bits)
     val right = !u(beside.M10_NEGATIVE)
@@ -100,7 +103,7 @@ class AngleSearch(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) exten
     val M10 = u.insert(moment(Mux(u(fold.SWAP), u(fold.B), u(fold.A)), u(beside.M10_NEGATIVE)))
     val M01 = u.insert(moment(Mux(u(fold.SWAP), u(fold.A), u(fold.B)), u(beside.M01_NEGATIVE)))
   }
-  val out = at(4 * steps.size + 3)
+  val out = at(4 * steps.size + 4)
   io.output.valid := out.isValid
   io.output.corner := out(beside.CORNER)
   io.output.m10 := out(unfold.M10)

@@ -388,7 +388,7 @@ case class MatcherConfig(
   def groups: Int = storeCapacity / comparators
   def ratioWidth: Int = ratioFracBits + 1
 
-  /** clocks a live feature holds the matcher: the scan, the RAM read (address register, RAM, output register), the
+  /** clocks a live feature holds the matcher: the scan, the RAM read (`MatcherConfig.readLatency`), the
     * popcount, the lane register, the merge levels, the accumulation, the ratio product, one to decide */
   def clocksPerFeature: Int =
     groups + MatcherConfig.readLatency + MatcherConfig.popcountStages(this) + 1 + log2Up(comparators) + 1 + 1 + 1
@@ -405,8 +405,9 @@ object MatcherConfig {
   val distanceWidth: Int = log2Up(OrbDescriptorConfig.descriptorBits + 2)
   val none: Int = OrbDescriptorConfig.descriptorBits + 1
 
-  /** clocks from a read's address to its data: the address register (each lane's own), the RAM, its output register */
-  val readLatency: Int = 3
+  /** clocks from a read's address to its data: the address register (each lane's own), the RAM, its output
+    * register, a register beside the lane's logic */
+  val readLatency: Int = 4
 
   /** clocks from the sweep's read of an entry to its correspondence's push into the output FIFO (the entry picked
     * from its lane into a register, then the push's register) */

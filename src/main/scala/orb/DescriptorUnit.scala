@@ -128,11 +128,16 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
     val end = FrameEndMark()
   }
 
-  /** ... with the bin's cos and sin (magnitude and sign), looked up while it waits */
-  case class PreparedCorner() extends Bundle {
-    val item = ReadyCorner()
+  /** A corner's rotation: its bin's cos and sin as magnitudes and signs. */
+  case class Rotation() extends Bundle {
     val cos, sin = UInt(magnitudeWidth bits)
     val cosNegative, sinNegative = Bool()
+  }
+
+  /** ... with its rotation, looked up while it waits */
+  case class PreparedCorner() extends Bundle {
+    val item = ReadyCorner()
+    val rotation = Rotation()
   }
   val ready = StreamFifo(ReadyCorner(), d.readyQueueDepth)
   ready.io.push.valid := io.corners.valid
@@ -140,8 +145,6 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
   ready.io.push.payload.startRow := io.corners.rowTag + OrbDescriptorConfig.startRowOffset
   val queueDrop = io.corners.valid && !ready.io.push.ready
 
-  /** cos and sin of a bin from a quarter of the table (`OrbDescriptorConfig.cosSin`): the magnitudes of the bin
-    * within its quadrant, registered, then swapped and signed by the quadrant. */
   /** cos and sin of a bin from a quarter of the table (`OrbDescriptorConfig.cosSin`): the magnitudes of the bin
     * within its quadrant (sin read from the table backwards: no subtraction), in two registered steps (the table's
     * parts, then the part), then swapped and signed by the quadrant. */
@@ -177,10 +180,10 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
     val c = cosTable.pick(l.cosWords, l.part)
     val s = sinTable.pick(l.sinWords, l.part)
     o.item := l.item
-    o.cos := Mux(odd, s, c)
-    o.sin := Mux(odd, c, s)
-    o.cosNegative := l.quadrant === 1 || l.quadrant === 2
-    o.sinNegative := l.quadrant.msb
+    o.rotation.cos := Mux(odd, s, c)
+    o.rotation.sin := Mux(odd, c, s)
+    o.rotation.cosNegative := l.quadrant === 1 || l.quadrant === 2
+    o.rotation.sinNegative := l.quadrant.msb
     o
   }
 
@@ -192,8 +195,8 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
   val engine = new DescriptorEngine
 
   /** Hands the queue's head to the engine. The decision is taken on registered values: the rows since the head's
-    * patch was complete are registered first, the row test on them is registered next, and the head starts a clock
-    * later unless it changed or a row starts in between. */
+    * patch was complete and the tests on them (early, late, the rows' data good) are registered first, the decision
+    * on them next, and the head starts a clock later unless it changed or a row starts in between. */
   val dispatch = new Area {
     // the queue's RAM through a register both ways (no decision reaches its read pointer), then the lookups, each
     // step with its valid and ready registered (no chain of readies from the decision back to the queue): a step
@@ -201,22 +204,29 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
     val head = ready.io.pop.halfPipe().map(lookupCosSin).halfPipe().map(prepare).halfPipe()
     val c = head.payload.item
     // rows since the patch was complete (negative: not yet), for the head of the clock before: it is the head's
-    // now unless the head left then or a row started since
-    val since = RegNext((ring.clock.row - c.startRow).asSInt)
+    // now unless the head left then or a row started since (the rows and their history then moved on)
+    val difference = (ring.clock.row - c.startRow).asSInt
+    val since = RegNext(difference)
     val computed = RegNext(head.valid && !c.end.now && !head.fire) init False
     val current = computed && !ring.rowStart
-    val due = current && !since.msb
-    val late = since.asUInt >= d.slackRows
-    val row = ring.history(since.asUInt.resize(log2Up(d.slackRows max 2)))
-    val dataOk = row.active && row.frame === c.frameTag
+    // the tests on the rows since, registered beside them: the start decision only combines registers
+    val early = RegNext(difference.msb) init True
+    val late = RegNext(difference.asUInt >= d.slackRows) init False
+    val dataOk = RegNext {
+      val row = ring.history(difference.asUInt.resize(log2Up(d.slackRows max 2)))
+      row.active && row.frame === c.frameTag
+    } init False
+    val due = current && !early
     // the engine free for a corner, a clock late (never right after a start, which takes the slot)
     val free = Reg(Bool()) init False
     // the decisions registered; a row start in the clock of a start (known a clock ahead) holds it
     val start = RegNext(due && !late && dataOk && free && !head.fire && !ring.startsRow) init False
     val refuse = RegNext(due && (late || !dataOk) && !head.fire) init False
     // the newest patch row (cy + 18) is in the slot of raw row cy + 21, `since + 1` rows back; the oldest 36 more
-    val back = ring.slot.resize(slotWidth + 2).asSInt - since.resize(slotWidth + 2) - S(patchRows, slotWidth + 2 bits)
-    val base = RegNext(Mux(back.msb, back + S(rows, slotWidth + 2 bits), back).asUInt.resize(slotWidth))
+    // (registered before it is wrapped into the ring: the wrap is formed as a start takes it)
+    val back =
+      RegNext(ring.slot.resize(slotWidth + 2).asSInt - since.resize(slotWidth + 2) - S(patchRows, slotWidth + 2 bits))
+    val base = Mux(back.msb, back + S(rows, slotWidth + 2 bits), back).asUInt.resize(slotWidth)
     val leftWidth = log2Up(d.slackRows + 1)
     val rowsLeft = RegNext((S(d.slackRows, leftWidth + 1 bits) - since.resize(leftWidth + 1)).asUInt.resize(leftWidth))
     free := engine.canBegin && !start
@@ -233,8 +243,7 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
   class EngineSlot(val tag: Boolean) extends Area {
     val state = RegInit(EngineState.IDLE)
     val corner = Reg(ReadyCorner())
-    val cos, sin = Reg(UInt(magnitudeWidth bits))
-    val cosNegative, sinNegative = Reg(Bool())
+    val rotation = Reg(Rotation())
     val base = Reg(UInt(slotWidth bits))
     val rowsLeft = Reg(UInt(log2Up(d.slackRows + 1) bits))
 
@@ -243,6 +252,12 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
     val lastGroup = Reg(Bool()) init False
     val descriptor = Reg(Bits(OrbDescriptorConfig.descriptorBits bits))
     val running = state === EngineState.RUN
+
+    /** the next corner to start takes this slot, and this slot's feature leaves next: the slots take turns, each
+      * with its own flags (kept apart), so no one tag drives both slots' registers */
+    val takesNext, leavesNext = RegInit(Bool(!tag))
+    takesNext.addAttribute("preserve")
+    leavesNext.addAttribute("preserve")
 
     /** its patch's oldest row goes at the next row start: `rowsLeft === 1`, a register beside the count */
     val onLastRow = RegNext(rowsLeft.getAheadValue() === 1) init False
@@ -253,23 +268,29 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
     def begin(c: PreparedCorner, b: UInt, left: UInt): Unit = {
       state := EngineState.RUN
       corner := c.item
-      cos := c.cos
-      sin := c.sin
-      cosNegative := c.cosNegative
-      sinNegative := c.sinNegative
+      rotation := c.rotation
       base := b
       rowsLeft := left
       done := 0
       lastGroup := Bool(groups == 1)
     }
 
-    /** A group's results collected: the descriptor is complete after the last (unless abandoned in that clock). */
-    def collected(results: Bits): Unit = {
-      descriptor := results ## descriptor(descriptor.high downto testsPerGroup)
-      done := done + 1
-      lastGroup := done === groups - 2
-      when(lastGroup && !abandon) {
-        state := EngineState.FINISHED
+    /** A group's results collected when `enables` (copies of one flag, each for a part of the descriptor, the first
+      * for the count too): the descriptor is complete after the last (unless abandoned in that clock). */
+    def collected(results: Bits, enables: Seq[Bool]): Unit = {
+      val shifted = results ## descriptor(descriptor.high downto testsPerGroup)
+      val partBits = descriptor.getWidth / enables.size
+      for ((enable, p) <- enables.zipWithIndex) {
+        when(enable) {
+          descriptor(p * partBits, partBits bits) := shifted(p * partBits, partBits bits)
+        }
+      }
+      when(enables.head) {
+        done := done + 1
+        lastGroup := done === groups - 2
+        when(lastGroup && !abandon) {
+          state := EngineState.FINISHED
+        }
       }
     }
 
@@ -302,20 +323,22 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
 
     def begin(c: PreparedCorner, b: UInt, left: UInt): Unit = {
       for (s <- slots) {
-        when(nextTag === Bool(s.tag)) {
+        when(s.takesNext) {
           s.begin(c, b, left)
         }
+        s.takesNext := !s.takesNext
       }
-      fetch.group := 0
+      fetch.restart()
       fetch.tag := nextTag
     }
 
     /** The oldest corner's feature was handed on, or its abandonment counted. */
     def handOn(): Unit = {
       for (s <- slots) {
-        when(outTag === Bool(s.tag)) {
+        when(s.leavesNext) {
           s.release()
         }
+        s.leavesNext := !s.leavesNext
       }
       outTag := !outTag
     }
@@ -330,14 +353,15 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
       a.addAttribute("preserve")
       a
     }
-    private var steps = 0
+    private val enabledBits = Array.fill(advanceCopies.size)(0)
 
-    /** the next copy of `advance`, in turn */
-    private def enable(): Bool = {
-      steps += 1
-      advanceCopies(steps % advanceCopies.size)
+    /** the copy of `advance` that enables the fewest bits so far, for `bits` more */
+    private def enable(bits: Int): Bool = {
+      val copy = enabledBits.indexOf(enabledBits.min)
+      enabledBits(copy) += bits
+      advanceCopies(copy)
     }
-    def step[T <: Data](v: T): T = RegNextWhen(v, enable())
+    def step[T <: Data](v: T): T = RegNextWhen(v, enable(widthOf(v)))
 
     /** Whether a front-end stage holds a group, and of which slot. */
     case class Token() extends Bundle {
@@ -346,8 +370,8 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
 
     /** `t` into a register of the front end; a group whose slot is abandoned as it loads is void. */
     def stepToken(t: Token): Token = {
-      val enabled = enable()
       val r = Reg(Token())
+      val enabled = enable(widthOf(r))
       r.valid.init(False)
       val loaded = Mux(enabled, t, r)
       r.tag := loaded.tag
@@ -357,17 +381,31 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
 
     // ---- front end: depends on nothing read ----
     val fetch = new Area {
-      val group = Reg(UInt(log2Up(groups + 1) bits)) init groups
 
       /** the slot of the corner fetched last */
       val tag = RegInit(True)
+      private val copies = scala.collection.mutable.ArrayBuffer[UInt]()
+      private def newCount(): UInt = Reg(UInt(log2Up(groups + 1) bits)) init groups
+      val group = newCount()
       val valid = group < groups
-      when(advance && valid) {
-        group := group + 1
+      private def counting(g: UInt): UInt = {
+        when(advance && valid) {
+          g := g + 1
+        }
+        when(valid && abandons(tag)) {
+          g := groups
+        }
+        copies += g
+        g
       }
-      when(valid && abandons(tag)) {
-        group := groups
-      }
+      counting(group)
+
+      /** a copy of `group` kept apart, its next value formed beside it: no one next-value logic drives every copy
+        * across the chip */
+      def counter(): UInt = counting(newCount())
+
+      /** a corner starts: every count from its first group */
+      def restart(): Unit = copies.foreach(_ := 0)
       val token = Token()
       token.valid := valid
       token.tag := tag
@@ -377,7 +415,7 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
     val nextTag = !fetch.tag
 
     /** a corner may start: the front end has fetched the previous corner's groups and the next slot is free */
-    val canBegin = !fetch.valid && pick(nextTag)(_.state === EngineState.IDLE)
+    val canBegin = !fetch.valid && slots.map(s => s.takesNext && s.state === EngineState.IDLE).orR
 
     /** no corner in the engine */
     val idle = !fetch.valid && slots.map(_.state === EngineState.IDLE).reduce(_ && _)
@@ -402,9 +440,9 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
       val token = stepToken(stepToken(stepToken(fetch.token)))
       val index = fetch.group.resize(log2Up(groups))
       val table = Arith.SplitTable(rom, pointsPerGroup * 2 * fieldWidth, DescriptorUnit.tableParts)
-      // a copy of the group count per part of the table (each loads what the count loads, kept apart)
+      // a copy of the group count per part of the table (kept apart)
       val indexCopies = (0 until DescriptorUnit.tableParts).map { _ =>
-        val r = RegNext(fetch.group.getAheadValue()) init groups
+        val r = fetch.counter()
         r.addAttribute("preserve")
         r.resize(log2Up(groups))
       }
@@ -421,19 +459,10 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
       def yNegative(i: Int): Bool = field(2 * i + 1).msb
     }
 
-    /** A slot's rotation: cos and sin magnitudes and signs. */
-    case class Rotation() extends Bundle {
-      val cos, sin = UInt(magnitudeWidth bits)
-      val cosNegative, sinNegative = Bool()
-    }
     // the rotation of the fetched group's slot, carried beside the pattern (the multipliers' other operands: the
     // last step becomes their input registers)
     val rotation = new Area {
-      val fetched = Rotation()
-      fetched.cos := pick(fetch.tag)(_.cos)
-      fetched.sin := pick(fetch.tag)(_.sin)
-      fetched.cosNegative := pick(fetch.tag)(_.cosNegative)
-      fetched.sinNegative := pick(fetch.tag)(_.sinNegative)
+      val fetched = pick(fetch.tag)(_.rotation)
       val value = step(step(step(fetched)))
     }
     val cosM = rotation.value.cos
@@ -739,13 +768,16 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
       val results = Vec((0 until testsPerGroup).map(t => Mux(reads8.completes(t), firsts(t) < seconds(t), bits(t))))
       when(reads8.valid) {
         bits := results.asBits
-        when(reads8.last) {
-          for (s <- slots) {
-            when(reads8.tag === Bool(s.tag)) {
-              s.collected(results.asBits)
-            }
-          }
+      }
+      // a slot's group complete (`reads8` valid, last and of that slot), decided beside `reads8` into copies of its
+      // own (kept apart), each enabling a part of the slot's descriptor
+      for (s <- slots) {
+        val enables = Seq.fill(DescriptorUnit.collectCopies) {
+          val e = RegNext(r.valid && r.last && r.tag === Bool(s.tag) && !abandons(r.tag)) init False
+          e.addAttribute("preserve")
+          e
         }
+        s.collected(results.asBits, enables)
       }
     }
   }
@@ -791,7 +823,8 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
   io.features << output.halfPipe()
 
   val drops = Reg(f.counter()) init 0
-  drops := drops + U(queueDrop).resize(f.counterWidth) + U(dispatch.refuse && !dispatch.c.end.now).resize(
+  // the queue's refusal registered first (a clock late: no counter waits for the queue's pointers)
+  drops := drops + U(RegNext(queueDrop) init False).resize(f.counterWidth) + U(dispatch.refuse && !dispatch.c.end.now).resize(
     f.counterWidth
   ) +
     U(engineDrop).resize(f.counterWidth)
@@ -826,7 +859,10 @@ object DescriptorUnit {
   val tableParts: Int = 8
 
   /** copies of the front end's `advance`, each enabling a share of its registers */
-  val advanceCopies: Int = 8
+  val advanceCopies: Int = 16
+
+  /** copies of a slot's "group collected" flag, each enabling a part of its descriptor */
+  val collectCopies: Int = 4
 
   /** Clocks the engine takes for a corner of bin `bin` whose patch's oldest row is in ring slot `base`, from its
     * start to its finished descriptor, when no earlier group is ahead of it in the front end; up to

@@ -161,11 +161,17 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
     }
     // The list keeps k entries: the corner itself, or the weakest entry it pushes out, is deselected.
     val deselect = c.valid && compare.full
-    // each list written by its own registered enable (decoded a clock ahead from the corner in `read`)
+    // each list place written by its own registered enable (decoded a clock ahead from the corner in `read`; one
+    // copy per place, kept apart: no one enable drives a whole list)
     val writes = lists.map { case (bank, cell) =>
-      RegNext(read.c.valid && read.bank === bank && read.cellIndex === cell) init False
+      (0 until k).map { _ =>
+        val w = RegNext(read.c.valid && read.bank === bank && read.cellIndex === cell) init False
+        w.addAttribute("preserve")
+        w
+      }
     }
-    for (((bank, cell), write) <- lists.zip(writes)) when(write) { banks(bank)(cell) := updated }
+    for (((bank, cell), write) <- lists.zip(writes); i <- 0 until k)
+      when(write(i)) { banks(bank)(cell)(i) := updated(i) }
 
     /** a corner on its way into a list */
     val busy = arriving.valid || fetched.c.valid || read.c.valid || c.valid

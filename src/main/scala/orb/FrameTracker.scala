@@ -64,12 +64,15 @@ class FrameTracker(c: FrameConfig) extends Component {
   val b = input.payload
   val fire = input.valid
 
+  /** a start of frame, decoded into its own register on the way in: it decides most of the state */
+  val starts = RegNext(io.pixels.valid && io.pixels.sof) init False
+
   // Closing the previous frame on a start of frame. Whether it would close well is kept in a register, from the
   // state's next values: the decision fans out to every field on a start of frame, and starts from a flip-flop.
   val close = new Area {
     val good = RegNext(!bad.getAheadValue() && known.xZero.getAheadValue() && !known.yZero.getAheadValue() &&
       (!processed.getAheadValue() || done.getAheadValue())) init False
-    val fault = fire && b.sof && inFrame && !good
+    val fault = starts && inFrame && !good
     val endsFrame = fault && !bad && processed && !done
     val countLine = fault && !known.xZero && !lineFaulted
     val countFrame = fault && !bad
@@ -77,7 +80,7 @@ class FrameTracker(c: FrameConfig) extends Component {
 
   // The frame state this pixel is checked against (after a start of frame, the new frame's).
   val cur = new Area {
-    val start = fire && b.sof
+    val start = starts
 
     /** the frame before was good: its geometry becomes the expected one */
     val learnt = inFrame && close.good
@@ -154,7 +157,7 @@ class FrameTracker(c: FrameConfig) extends Component {
   }
 
   when(fire) {
-    when(b.sof) {
+    when(starts) {
       inFrame := True
       locked := cur.nowLocked
       expW := cur.nowExpW

@@ -104,16 +104,19 @@ class HarrisDetector(f: FrameConfig, h: HarrisConfig, columnRows: Int, stages: H
     (a.resize(width) + (b.resize(width) |<< 1)) + c.resize(width)
 
   /** Binomial 1 6 15 20 15 6 1 as a symmetric pre-add (at node `pre`) then shifts and adds (at node `sum`; with a
-    * `mid` node, the two halves of that sum are registered there). */
+    * `mid` node, the two halves of that sum are registered there), plus `bias` if given. */
   private def binomial7(
       values: collection.IndexedSeq[SInt],
       pre: Node,
       sum: Node,
       width: Int,
-      mid: Option[Node] = None
+      mid: Option[Node] = None,
+      bias: Option[SInt] = None
   ): SInt = {
     require(values.size == 7)
-    val pairs = pre.insert(Vec(Seq((0, 6), (1, 5), (2, 4)).map { case (i, j) =>
+    val outer = values(0).resize(width) + values(6).resize(width)
+    // a bias (the rounding's half) joins the outer pair, whose weight is 1: no adder more in the last step
+    val pairs = pre.insert(Vec(bias.fold(outer)(outer + _.resize(width)) +: Seq((1, 5), (2, 4)).map { case (i, j) =>
       values(i).resize(width) + values(j).resize(width)
     } :+
       values(3).resize(width)))
@@ -209,7 +212,7 @@ class HarrisDetector(f: FrameConfig, h: HarrisConfig, columnRows: Int, stages: H
     val half = if (h.windowShift == 0) S(0, w bits) else S(BigInt(1) << (h.windowShift - 1), w bits)
     def window(v: Payload[SInt]): SInt =
       floorShift(
-        binomial7(lastValid(pre(v), 7, pre.isValid), pre, at(stages.rowSum), w, Some(at(stages.rowMid))) + half,
+        binomial7(lastValid(pre(v), 7, pre.isValid), pre, at(stages.rowSum), w, Some(at(stages.rowMid)), Some(half)),
         h.windowShift
       )
     val SXX = at(stages.rowSum).insert(window(column.VXX).resize(h.sSquareWidth + 1).asUInt.resize(h.sSquareWidth))
@@ -264,12 +267,16 @@ class HarrisDetector(f: FrameConfig, h: HarrisConfig, columnRows: Int, stages: H
     // so beats still in flight from the previous frame see the right values.
     // (v - reach) in [border, size - 1 - border], without unsigned wrap-around for small frames.
     def inside(v: UInt, size: UInt) = v >= h.border + reach && (v +^ h.border) < (size +^ reach)
+    // compared a stage ahead, from the same beat's position
+    val w = at(stages.window)
+    val INSIDE_X = w.insert(inside(w(PIXEL).x, geometry.width))
+    val INSIDE_Y = w.insert(inside(w(PIXEL).y, geometry.height))
     // The comparisons are registered (into the output node) before they are combined.
     val TESTS = n.insert(Vec(Seq(
       p.active,
       centre > control.threshold,
-      inside(p.x, geometry.width),
-      inside(p.y, geometry.height)
+      n(INSIDE_X),
+      n(INSIDE_Y)
     ) ++ earlier.map(centre > _) ++ later.map(centre >= _)))
     val CENTRE = n.insert(centre)
     // the corner's position, the centre's, registered with the tests

@@ -54,6 +54,7 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
 
   /** entry index -> group (the RAM address of its lane), as a slice: plain Verilog without width warnings */
   def groupOf(index: UInt, width: Int): UInt = (if (P == 1) index else index(index.high downto log2Up(P))).resize(width)
+  def laneIs(lane: UInt, l: Int): Bool = if (P == 1) True else lane === l
   def pick[T <: Data](v: Seq[T], lane: UInt): T = if (P == 1) v.head else Vec(v)(lane.resize(log2Up(P)))
   require(
     h.scoreWidth <= distanceWidth + 1 + 2 * cw,
@@ -92,8 +93,15 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
 
   val stored = Reg(UInt(countWidth bits)) init 0
   val storedNow = Mux(frame.first && isKey, U(0, countWidth bits), stored)
-  // registered: the store only changes while a keyframe loads, long before a scan counts its groups
+  // registered: the store only changes while a keyframe loads, long before a scan counts its groups (its end item
+  // keeps the matcher busy for `m.groups` clocks); so are the comparisons a scan makes with it, a clock later still
   val groups = RegNext(groupOf(stored +^ (P - 1), groupWidth + 1)) init 0
+  val groupsCompared = new Area {
+    val zero = RegNext(groups === 0) init True
+    val one = RegNext(groups === 1) init False
+    val lessOne = RegNext((groups - 1).resize(groupWidth)) init 0
+    val lessTwo = RegNext(groups - 2) init 0
+  }
 
   val lanes =
     for (l <- 0 until P) yield new Area {
@@ -156,14 +164,14 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
     when(issuing) {
       group := group + 1
       issuing := !lastGroup
-      lastGroup := group + 2 === groups
+      lastGroup := group === groupsCompared.lessTwo
     }
     val start = item.fire && !frame.keyNow && !item.end.now
     when(start) {
       activity := Activity.SCAN
       group := 0
-      issuing := groups =/= 0
-      lastGroup := groups === 1
+      issuing := !groupsCompared.zero
+      lastGroup := groupsCompared.one
     }
     // copied every clock while idle (an enable from one register, not from the handshake): the feature that starts
     // the scan is the last one copied
@@ -184,8 +192,9 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
       * the last clock's free places do not show yet: with fewer free places than that, the sweep has to wait */
     val tight = RegNext(output.io.availability < pushLatency + 2) init False
 
-    /** a scan's correspondence (pushed when the scan ends, with nothing else pushed meanwhile) will fit */
-    val roomForItem = RegNext(output.io.availability >= 2) init True
+    /** a scan's correspondence (pushed when the scan ends, with nothing else pushed meanwhile) will fit: judged on
+      * the free places of two clocks ago (what one push in flight and one in the last clock can have taken) */
+    val roomForItem = RegNext(output.io.availability >= 3) init True
     val waited = Reg(UInt(log2Up(m.outputTimeout + 1) bits)) init 0
 
     /** waited === outputTimeout, kept in its own register */
@@ -197,7 +206,6 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
       waited := waited + 1
       giveUp := waited === m.outputTimeout - 1
     }
-    val itemRoom = roomForItem || giveUp
     val sweepRoom = !tight || giveUp
   }
 
@@ -249,25 +257,33 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
   val popStages = MatcherConfig.popcountStages(m)
 
   // The read side of every lane: store and cross state, by the scan, the sweep or the rescan, every clock (a read
-  // nobody asked for is ignored), through a lane's own address register and the RAMs' output registers: the data
-  // come `readLatency` clocks after the address is chosen.
+  // nobody asked for is ignored), through a lane's own address registers, the RAMs' output registers and a register
+  // after them: the data come `readLatency` clocks after the address is chosen. The scan reads a group's cross state
+  // `popStages` clocks after its entries, so that it meets their distance (the address waits, not the data).
+  val scanCrossAddr = Delay(scan.readAddr, popStages)
   val reads =
     for ((lane, l) <- lanes.zipWithIndex) yield new Area {
-      // each lane's own copy (kept apart: one register would drive every RAM of the store)
-      val addr = RegNext(Mux(rescan.busy, rescan.group.resize(groupWidth), Mux(sweep.busy, sweep.addr, scan.readAddr)))
-      addr.addAttribute("preserve")
-      val entry = RegNext(lane.store.readSync(addr))
-      val cross = RegNext(lane.cross.readSync(addr))
+      // each lane's own copies (kept apart: one register would drive every RAM of the store)
+      def address(scanAddr: UInt): UInt = {
+        val a = RegNext(Mux(rescan.busy, rescan.group.resize(groupWidth), Mux(sweep.busy, sweep.addr, scanAddr)))
+        a.addAttribute("preserve")
+        a
+      }
+      val addr = address(scan.readAddr)
+      val crossAddr = address(scanCrossAddr)
+      // the RAMs' output registers, then a register beside the lane's logic (the RAMs lie apart from it)
+      val entry = RegNext(RegNext(lane.store.readSync(addr)))
+      val cross = RegNext(RegNext(lane.cross.readSync(crossAddr)))
     }
 
   // The rescan's data path: the scores read through the cross port, the lowest (first on ties) of them all.
   val rescanMin = new Area {
-    // Registered at every step: the RAM data (its output register, then a register beside the comparisons: the
-    // RAMs are far apart), each level of the group's lowest, the running lowest; no path holds two of them.
-    val scores = reads.map(r => RegNext(r.cross.asBits.resize(h.scoreWidth).asUInt))
-    val read = Delay(rescan.issuing, readLatency + 1, init = False)
-    val base = Delay(rescan.group.resize(countWidth) |<< log2Up(P), readLatency + 1)
-    val first = Delay(rescan.issuing && rescan.group === 0, readLatency + 1, init = False)
+    // Registered at every step: the RAM data (see `reads`), each level of the group's lowest, the running lowest;
+    // no path holds two of them.
+    val scores = reads.map(r => r.cross.asBits.resize(h.scoreWidth).asUInt)
+    val read = Delay(rescan.issuing, readLatency, init = False)
+    val base = Delay(rescan.group.resize(countWidth) |<< log2Up(P), readLatency)
+    val first = Delay(rescan.issuing && rescan.group === 0, readLatency, init = False)
     // the group's lowest score, the first lane on ties, a register after every level of comparisons
     def lower(a: (UInt, UInt), b: (UInt, UInt)): (UInt, UInt) = {
       val takeB = b._1 < a._1
@@ -331,7 +347,7 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
         }
         val liveDescriptor = Cat(liveParts)
         val count = MatcherConfig.popCount(r.entry.descriptor ^ liveDescriptor, m.popcountLevelsPerStage)
-        val old = Delay(r.cross, popStages)
+        val old = r.cross
         val index = (group.resize(countWidth) |<< log2Up(P)) | U(l, countWidth bits)
         val real = index < stored
         val wins = valid && real && count < old.distance
@@ -394,14 +410,14 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
     val accTakes = RegNext(mergedValid && takes(acc, merged)) init False
     when(accTakes) { accKey := mergedKey }
     val accValid = RegNext(mergedValid) init False
-    val lastGroup = RegNext(mergedValid && mergedGroup === (groups - 1).resize(groupWidth)) init False
+    val lastGroup = RegNext(mergedValid && mergedGroup === groupsCompared.lessOne) init False
   }
 
   // A feature's scan is over when its last group has been accumulated: accept or not, then the next feature.
   val decide = new Area {
     // A clock after the last group, so that the ratio's product is registered before it is compared.
     val done = RegNext(compare.lastGroup) init False
-    val emptyDone = scan.busy && groups === 0 // an empty store: nothing to scan
+    val emptyDone = scan.busy && groupsCompared.zero // an empty store: nothing to scan
     val a = compare.acc
     val p = frame.params
     val ratioSecond = RegNext((p.ratio * a.second).resize(distanceWidth + m.ratioFracBits + 1))
@@ -413,9 +429,12 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
     }
     // The decision registered: the mark's write and the correspondence's push leave a clock later (the next
     // feature's scan reads nothing for several clocks, and the live position stays until it starts).
-    val mark = RegNext(accepted && p.crossCheck && a.best.wins) init False
+    val mark = accepted && p.crossCheck && a.best.wins
+    val bestLane = a.best.index.resize(log2Up(P) max 1)
+
+    /** per lane: its entry is marked (the lane decided with the mark, no comparison behind the register) */
+    val markLanes = (0 until P).map(l => RegNext(mark && laneIs(bestLane, l)) init False)
     val emit = RegNext(accepted && !p.crossCheck) init False
-    val markLane = RegNext(a.best.index.resize(log2Up(P) max 1))
     val markAddr = RegNext(groupOf(a.best.index, groupWidth))
     val markValue = Cross()
     markValue.distance := RegNext(a.best.distance)
@@ -448,7 +467,7 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
   // writes are registered on their way to the RAMs (address, data and enable), so no decision reaches a RAM in the
   // clock it is made; nothing reads a word in the clock after it is decided (the rescan starts a clock late).
   for ((lane, l) <- lanes.zipWithIndex) {
-    def here(sel: UInt): Bool = if (P == 1) True else sel === l
+    def here(sel: UInt): Bool = laneIs(sel, l)
     val loadHere = load.write && here(load.lane)
     lane.store.write(RegNext(load.addr), RegNext(load.entry), RegNext(loadHere) init False)
     // the score word a clock later than the entry, its decision registered before the selection below (the rescan
@@ -458,8 +477,9 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
     val scoreWord = Cross()
     scoreWord.assignFromBits(RegNext(item.score).asBits.resize(scoreWord.getBitsWidth))
     val c = compare.results(l)
-    val markHere = decide.mark && here(decide.markLane)
-    val clearHere = swept.valid && here(swept.lane)
+    val markHere = decide.markLanes(l)
+    // the lane a clear is for, decided with the read and delayed beside it (no lane comparison on the way)
+    val clearHere = Delay(sweep.reading && here(sweep.lane), readLatency, init = False)
     val address = Mux(
       scoreHere,
       scoreAddr,
@@ -476,10 +496,11 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
   }
 
   // Ready for the next item when nothing is busy: a register, computed from the next values of the flags it depends
-  // on, so no decision hangs on the handshake and nothing waits for the readiness's own logic.
+  // on (the FIFO's room from its register: see `paced`), so no decision hangs on the handshake or the FIFO's
+  // pointers and nothing waits for the readiness's own logic.
   val readyNext =
     activity.getAheadValue() === Activity.IDLE && !sweep.drainingNext && !rescan.starting.getAheadValue() &&
-      (paced.roomForItem.getAheadValue() || paced.giveUp.getAheadValue())
+      (paced.roomForItem || paced.giveUp.getAheadValue())
   item.ready := RegNext(readyNext) init True
 
   // The correspondence registered on its way into the FIFO (the lanes' RAMs are far from it): a scan's is pushed a

@@ -79,17 +79,22 @@ class MatcherSpec extends AnyFunSuite {
         dut.clockDomain.waitSamplingWhere(in.ready.toBoolean)
         in.valid #= false
       }
-      // Drain: until every correspondence counted by the matcher has arrived, and then a scan's time more with
-      // nothing new (a bound, so that a lost correspondence fails the comparison instead of hanging the test).
+      // Drain: until every correspondence counted by the matcher has arrived and nothing has been pushed or taken
+      // for longer than a scan, a sweep of the store and a full FIFO's pushes in flight take (a bound, so that a lost
+      // correspondence fails the comparison instead of hanging the test).
       val s = dut.io.status
-      var waited = 0
+      val quietNeeded = m.clocksPerFeature + m.storeCapacity + 4 * m.outputDepth + stallFor
       val bound = 200 * (m.clocksPerFeature + m.storeCapacity + 4 * m.outputDepth) + stallFor
-      while (
-        waited < bound && (s.matches.toLong != got.size || waited < m.clocksPerFeature + m.storeCapacity + stallFor)
-      ) {
-        dut.clockDomain.waitSampling(); waited += 1
+      var waited = 0
+      var quiet = 0
+      var seen = (-1L, -1)
+      while (waited < bound && quiet < quietNeeded) {
+        dut.clockDomain.waitSampling()
+        waited += 1
+        val now = (s.matches.toLong, got.size)
+        quiet = if (now == seen && now._1 == now._2) quiet + 1 else 0
+        seen = now
       }
-      dut.clockDomain.waitSampling(m.clocksPerFeature + 4 * m.outputDepth)
       out = RtlMatches(got.toSeq, s.stored.toLong, s.storeOverflow.toLong, s.matches.toLong, s.matchDrops.toLong)
     }
     out
