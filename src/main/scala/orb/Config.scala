@@ -405,9 +405,8 @@ object MatcherConfig {
   val distanceWidth: Int = log2Up(OrbDescriptorConfig.descriptorBits + 2)
   val none: Int = OrbDescriptorConfig.descriptorBits + 1
 
-  /** clocks from a read's address to its data: the address register (each lane's own), the RAM, its output
-    * register, a register beside the lane's logic */
-  val readLatency: Int = 4
+  /** clocks from a read's address to its data: the address register (each lane's own), the RAM, its output register */
+  val readLatency: Int = 3
 
   /** clocks from the sweep's read of an entry to its correspondence's push into the output FIFO (the entry picked
     * from its lane into a register, then the push's register) */
@@ -419,13 +418,15 @@ object MatcherConfig {
   /** The popcount adds the counts of 8-bit chunks in a binary tree. */
   val chunkBits: Int = 8
   val treeLevels: Int = log2Up(OrbDescriptorConfig.descriptorBits / chunkBits)
-  def popcountStages(m: MatcherConfig): Int = 1 + (treeLevels + m.popcountLevelsPerStage - 1) / m.popcountLevelsPerStage
+  def popcountStages(m: MatcherConfig): Int = 2 + (treeLevels + m.popcountLevelsPerStage - 1) / m.popcountLevelsPerStage
 
-  /** Ones in `b` (256 bits), after `popcountStages` clocks: chunk counts registered, then a register every
+  /** The Hamming distance of `a` and `b` (256 bits), after `popcountStages` clocks: their xor registered (beside the
+    * lane's logic: `a` comes from a RAM's output register), the chunk counts registered, then a register every
     * `levelsPerStage` levels of the adder tree, and after the last. */
-  def popCount(b: Bits, levelsPerStage: Int): UInt = {
+  def hamming(a: Bits, b: Bits, levelsPerStage: Int): UInt = {
     import spinal.lib._
-    var v: Seq[UInt] = b.subdivideIn(chunkBits bits).map(c => RegNext(CountOne(c))).toSeq
+    val differ = RegNext(a ^ b)
+    var v: Seq[UInt] = differ.subdivideIn(chunkBits bits).map(c => RegNext(CountOne(c))).toSeq
     var level = 0
     while (v.size > 1) {
       v = v.grouped(2).map(g => g(0) +^ g(1)).toSeq

@@ -198,10 +198,11 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
     * patch was complete and the tests on them (early, late, the rows' data good) are registered first, the decision
     * on them next, and the head starts a clock later unless it changed or a row starts in between. */
   val dispatch = new Area {
-    // the queue's RAM through a register both ways (no decision reaches its read pointer), then the lookups, each
-    // step with its valid and ready registered (no chain of readies from the decision back to the queue): a step
-    // passes a corner every other clock, and corners are an engine's run apart
-    val head = ready.io.pop.halfPipe().map(lookupCosSin).halfPipe().map(prepare).halfPipe()
+    // the queue's RAM through its output register, then a register beside the lookups (the RAM lies apart from
+    // them; its readiness from two registers: no decision reaches the read pointer), then the lookups, each step with its
+    // valid and ready registered (no chain of readies from the decision back to the queue): a step passes a corner
+    // every other clock, and corners are an engine's run apart
+    val head = ready.io.pop.m2sPipe().halfPipe().map(lookupCosSin).halfPipe().map(prepare).halfPipe()
     val c = head.payload.item
     // rows since the patch was complete (negative: not yet), for the head of the clock before: it is the head's
     // now unless the head left then or a row started since (the rows and their history then moved on)

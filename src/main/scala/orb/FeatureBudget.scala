@@ -67,114 +67,82 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
   val banks = Vec.fill(2)(Vec.fill(cells)(Vec.fill(k)(Reg(Entry()))))
   for (bank <- banks; cell <- bank; e <- cell) e.valid.init(False)
 
-  // A corner into its cell's list, in four registered steps after its input register: its cell's list read from the
-  // bank (an AND-OR over the lists, into a register); the list, or the update of the corner just before it when that
-  // one writes its list in that very clock; which entries stay ahead of it; the updated list, written back. Corners
-  // are at least two clocks apart after the 3x3 suppression, so only the corner just before can still be on its way.
-  // `ahead` (valid and at least as strong) is a prefix of the sorted list.
+  // A corner into its cell's list: every list compares and updates itself, beside its own registers, so no list is
+  // fetched through a multiplexer and nothing is forwarded. The corner is registered on the way in, with its list
+  // decoded (one-hot) and one copy of it per bank (kept apart); in the next clock every place of every list compares
+  // itself with the corner of its bank (`ahead`: valid and at least as strong, a prefix of the sorted list) into a
+  // register; in the clock after, the corner's list is updated: the entries ahead stay, the corner takes the first
+  // place after them, the rest move down one. Corners are at least two clocks apart after the 3x3 suppression, so a
+  // corner compares with its list after the one before it has updated it.
   val intake = new Area {
     val cellWidth = log2Up(cells max 2)
-    val updated = Vec.fill(k)(Entry())
-    // the detector's corner registered here first: its cell selects a list across a wide multiplexer
-    val arriving = io.corners.stage()
-    val arrivingBank = arriving.y(b.bandShift downto b.bandShift)
-    val arrivingCell = arriving.x(b.cellShift, cellWidth bits)
-    // ... by a one-hot select over (bank, cell), decoded before that register, one copy per list place (kept apart):
-    // each drives an AND-OR of its own place in every list, not a mux tree from a few address bits
     val lists = for (bank <- 0 until 2; cell <- 0 until cells) yield (bank, cell)
     val bankIn = io.corners.y(b.bandShift downto b.bandShift)
     val cellIn = io.corners.x(b.cellShift, cellWidth bits)
-    val selects = (0 until k).map { _ =>
-      val s = RegNext(Vec(lists.map { case (bank, cell) => bankIn === bank && cellIn === cell }))
-      s.addAttribute("preserve")
-      s
+    val arriving = new Area {
+      val valid = RegNext(io.corners.valid) init False
+
+      /** the corner, one copy per bank (kept apart): each feeds the comparisons of its bank's lists */
+      val corners = (0 until 2).map { _ =>
+        val r = RegNext(io.corners.payload)
+        r.addAttribute("preserve")
+        r
+      }
+
+      /** its list, one-hot over (bank, cell) */
+      val selects =
+        RegNext(Vec(lists.map { case (bank, cell) => io.corners.valid && bankIn === bank && cellIn === cell }))
+      selects.foreach(_.init(False))
     }
 
     /** the list places in use in this line length, a register (the length changes only between frames) */
     val inList = Vec((0 until k).map(i => RegNext(U(i) < perCell.now) init False))
-    val fetched = new Area {
-      val c = arriving.stage()
-      val bank = RegNext(arrivingBank)
-      val cellIndex = RegNext(arrivingCell)
-      val list = Vec((0 until k).map(i =>
-        RegNext(MuxOH.or(selects(i), lists.map { case (bank, cell) => banks(bank)(cell)(i) }))
-      ))
+    val compared = new Area {
+      val valid = RegNext(arriving.valid) init False
+      val corners = arriving.corners.map(RegNext(_))
     }
-    val read = new Area {
-      val c = fetched.c.stage()
-      val bank = RegNext(fetched.bank)
-      val cellIndex = RegNext(fetched.cellIndex)
-      val list = Reg(Vec.fill(k)(Entry()))
-      // the corner's score, one copy per list place (kept apart): each feeds one comparison
-      val scores = (0 until k).map { _ =>
-        val r = RegNext(fetched.c.score)
-        r.addAttribute("preserve")
-        r
+    val perList =
+      for (((bank, cell), l) <- lists.zipWithIndex) yield new Area {
+        val list = banks(bank)(cell)
+        val corner = arriving.corners(bank)
+        val ahead = Vec((0 until k).map(i => RegNext(list(i).valid && list(i).score >= corner.score && inList(i))))
+        val full = RegNext((0 until k).map(i => !inList(i) || list(i).valid).andR)
+
+        /** the corner's list, one enable per place (kept apart): no one enable drives a whole list */
+        val writes = (0 until k).map { _ =>
+          val w = RegNext(arriving.selects(l)) init False
+          w.addAttribute("preserve")
+          w
+        }
+        val fresh = Entry()
+        fresh.valid := True
+        fresh.xOffset := compared.corners(bank).x.resize(b.cellShift)
+        fresh.yOffset := compared.corners(bank).y.resize(b.bandShift)
+        fresh.score := compared.corners(bank).score
+        // Entries ahead of the corner stay, the corner takes the first place after them, the rest move down one; a
+        // place beyond the line length's is emptied (only the valid flags are read of an empty entry).
+        val updated = Vec.fill(k)(Entry())
+        for (i <- 0 until k) {
+          val e = updated(i)
+          if (i == 0) e := fresh
+          else {
+            e := list(i - 1)
+            when(ahead(i - 1)) { e := fresh }
+          }
+          when(ahead(i)) { e := list(i) }
+          when(!inList(i)) { e.valid := False }
+        }
+        for (i <- 0 until k) when(writes(i)) { list(i) := updated(i) }
+
+        /** the corner is deselected here: its list keeps k entries, the corner itself or the weakest it pushes out */
+        val deselects = writes.head && full
       }
-    }
-    val compare = new Area {
-      val c = read.c.stage()
-      val bank = RegNext(read.bank)
-      val cellIndex = RegNext(read.cellIndex)
-      val list = RegNext(read.list)
-      val ahead =
-        Vec((0 until k).map(i => RegNext(read.list(i).valid && read.list(i).score >= read.scores(i) && inList(i))))
-      val full = RegNext((0 until k).map(i => !inList(i) || read.list(i).valid).andR)
-    }
-    val c = compare.c
-    // A corner's list is fetched at the end of its arrival's clock; a corner ahead of it by two or three clocks
-    // writes its list at the end of the next or of that very clock (from `compare`), after the fetch: a corner of the
-    // same cell takes that update instead, straight from `updated` or from `written` (registered as it is written).
-    // Compared a clock ahead, one copy per list place (kept apart).
-    val written = RegNext(updated)
-    val sameCell = (0 until k).map { _ =>
-      val s = RegNext(read.c.valid && read.bank === arrivingBank && read.cellIndex === arrivingCell) init False
-      s.addAttribute("preserve")
-      s
-    }
-    val sameCellBefore = (0 until k).map { _ =>
-      val s = RegNext(compare.c.valid && compare.bank === arrivingBank && compare.cellIndex === arrivingCell) init False
-      s.addAttribute("preserve")
-      s
-    }
-    for (i <- 0 until k) {
-      read.list(i) := Mux(sameCell(i), updated(i), Mux(sameCellBefore(i), written(i), fetched.list(i)))
-    }
-    val fresh = Entry()
-    fresh.valid := True
-    fresh.xOffset := c.x.resize(b.cellShift)
-    fresh.yOffset := c.y.resize(b.bandShift)
-    fresh.score := c.score
-    val list = compare.list
-    val ahead = compare.ahead
-    // Entries ahead of the corner stay, the corner takes the first place after them, the rest move down one; a
-    // place beyond the line length's is emptied (only the valid flags are read of an empty entry).
-    for (i <- 0 until k) {
-      val e = updated(i)
-      if (i == 0) e := fresh
-      else {
-        e := list(i - 1)
-        when(ahead(i - 1)) { e := fresh }
-      }
-      when(ahead(i)) { e := list(i) }
-      when(!inList(i)) { e.valid := False }
-    }
-    // The list keeps k entries: the corner itself, or the weakest entry it pushes out, is deselected.
-    val deselect = c.valid && compare.full
-    // each list place written by its own registered enable (decoded a clock ahead from the corner in `read`; one
-    // copy per place, kept apart: no one enable drives a whole list)
-    val writes = lists.map { case (bank, cell) =>
-      (0 until k).map { _ =>
-        val w = RegNext(read.c.valid && read.bank === bank && read.cellIndex === cell) init False
-        w.addAttribute("preserve")
-        w
-      }
-    }
-    for (((bank, cell), write) <- lists.zip(writes); i <- 0 until k)
-      when(write(i)) { banks(bank)(cell)(i) := updated(i) }
+
+    /** a corner deselected in this clock */
+    val deselect = perList.map(_.deselects).orR
 
     /** a corner on its way into a list */
-    val busy = arriving.valid || fetched.c.valid || read.c.valid || c.valid
+    val busy = arriving.valid || compared.valid
   }
 
   // A band is complete at the first pixel of row (band end + emitRowOffset); its winners leave in raster order.

@@ -12,7 +12,7 @@ import spinal.lib._
   * store, `comparators` entries per clock: lane l holds entries l, l + P, l + 2P, ... in its own RAM, so a scan
   * reads one group of P entries per clock. Each lane computes the Hamming distance (xor, popcount tree pipelined
   * every `popcountLevelsPerStage` adder levels); the lanes are merged into best (first on ties) and second best,
-  * accumulated over the groups. The feature is held (input not ready) for `groups + latency + 1` clocks.
+  * accumulated over the groups. The feature is held (input not ready) for `MatcherConfig.clocksPerFeature` clocks.
   *
   * Cross-check (mutual nearest neighbours, OpenCV's BFMatcher crossCheck): every entry keeps the best live
   * feature of the frame so far (distance, position, and whether that live feature's own best is this entry). A
@@ -93,12 +93,13 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
 
   val stored = Reg(UInt(countWidth bits)) init 0
   val storedNow = Mux(frame.first && isKey, U(0, countWidth bits), stored)
-  // registered: the store only changes while a keyframe loads, long before a scan counts its groups (its end item
-  // keeps the matcher busy for `m.groups` clocks); so are the comparisons a scan makes with it, a clock later still
+  // registered: the store only changes while a keyframe loads, a clock or more before a scan starts (its end
+  // item keeps the matcher busy for at least a clock); so are the comparisons a scan makes with the count of groups:
+  // those it starts with from `stored`, as `groups`, those it uses from its second clock on from `groups`
   val groups = RegNext(groupOf(stored +^ (P - 1), groupWidth + 1)) init 0
   val groupsCompared = new Area {
-    val zero = RegNext(groups === 0) init True
-    val one = RegNext(groups === 1) init False
+    val zero = RegNext(stored === 0) init True
+    val one = RegNext(stored =/= 0 && stored <= P) init False
     val lessOne = RegNext((groups - 1).resize(groupWidth)) init 0
     val lessTwo = RegNext(groups - 2) init 0
   }
@@ -257,9 +258,9 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
   val popStages = MatcherConfig.popcountStages(m)
 
   // The read side of every lane: store and cross state, by the scan, the sweep or the rescan, every clock (a read
-  // nobody asked for is ignored), through a lane's own address registers, the RAMs' output registers and a register
-  // after them: the data come `readLatency` clocks after the address is chosen. The scan reads a group's cross state
-  // `popStages` clocks after its entries, so that it meets their distance (the address waits, not the data).
+  // nobody asked for is ignored), through a lane's own address registers and the RAMs' output registers: the data
+  // come `readLatency` clocks after the address is chosen. The scan reads a group's cross state `popStages` clocks
+  // after its entries, so that it meets their distance (the address waits, not the data).
   val scanCrossAddr = Delay(scan.readAddr, popStages)
   val reads =
     for ((lane, l) <- lanes.zipWithIndex) yield new Area {
@@ -271,19 +272,18 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
       }
       val addr = address(scan.readAddr)
       val crossAddr = address(scanCrossAddr)
-      // the RAMs' output registers, then a register beside the lane's logic (the RAMs lie apart from it)
-      val entry = RegNext(RegNext(lane.store.readSync(addr)))
-      val cross = RegNext(RegNext(lane.cross.readSync(crossAddr)))
+      val entry = RegNext(lane.store.readSync(addr))
+      val cross = RegNext(lane.cross.readSync(crossAddr))
     }
 
   // The rescan's data path: the scores read through the cross port, the lowest (first on ties) of them all.
   val rescanMin = new Area {
-    // Registered at every step: the RAM data (see `reads`), each level of the group's lowest, the running lowest;
-    // no path holds two of them.
-    val scores = reads.map(r => r.cross.asBits.resize(h.scoreWidth).asUInt)
-    val read = Delay(rescan.issuing, readLatency, init = False)
-    val base = Delay(rescan.group.resize(countWidth) |<< log2Up(P), readLatency)
-    val first = Delay(rescan.issuing && rescan.group === 0, readLatency, init = False)
+    // Registered at every step: the RAM data (its output register, then a register beside the comparisons: the
+    // RAMs are far apart), each level of the group's lowest, the running lowest; no path holds two of them.
+    val scores = reads.map(r => RegNext(r.cross.asBits.resize(h.scoreWidth).asUInt))
+    val read = Delay(rescan.issuing, readLatency + 1, init = False)
+    val base = Delay(rescan.group.resize(countWidth) |<< log2Up(P), readLatency + 1)
+    val first = Delay(rescan.issuing && rescan.group === 0, readLatency + 1, init = False)
     // the group's lowest score, the first lane on ties, a register after every level of comparisons
     def lower(a: (UInt, UInt), b: (UInt, UInt)): (UInt, UInt) = {
       val takeB = b._1 < a._1
@@ -346,7 +346,7 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
           part
         }
         val liveDescriptor = Cat(liveParts)
-        val count = MatcherConfig.popCount(r.entry.descriptor ^ liveDescriptor, m.popcountLevelsPerStage)
+        val count = MatcherConfig.hamming(r.entry.descriptor, liveDescriptor, m.popcountLevelsPerStage)
         val old = r.cross
         val index = (group.resize(countWidth) |<< log2Up(P)) | U(l, countWidth bits)
         val real = index < stored

@@ -21,7 +21,8 @@ final case class RtlMatches(
 
 /** The matcher alone (a 16-entry store, 4 comparators, an 8-deep output FIFO) against `MatcherModel`, on
   * hand-made feature streams: store overflow, thresholds, ratio test, cross-check, ties, empty stores, a slow
-  * consumer (nothing lost) and a stalled one (drops after the 200-clock timeout, counted). */
+  * consumer (nothing lost) and a stalled one (drops after the 200-clock timeout, counted); and a second model with a
+  * store of one group, its frames back to back. */
 class MatcherSpec extends AnyFunSuite {
   import TestSupport._
   val m: MatcherConfig = MatcherConfig(storeCapacity = 16, comparators = 4, outputDepth = 8, outputTimeout = 200)
@@ -31,17 +32,28 @@ class MatcherSpec extends AnyFunSuite {
     CoreSim.simConfig("simWorkspace/matcher").compile(new Matcher(f, HarrisConfig(), OrbDescriptorConfig(), m))
   }
 
-  /** Drives `stream` (features and frame ends) with random gaps; the consumer is ready with probability `ready`
-    * (1: always) and, if `stallFor` > 0, not at all for that many clocks after the first frame end. */
+  /** a store of one group (as many entries as comparators): a scan is a single read */
+  val mOneGroup: MatcherConfig = m.copy(storeCapacity = m.comparators)
+  lazy val oneGroup: SimCompiled[Matcher] = {
+    println(s"[orb] compiling the Verilator model of Matcher (one group); seed = $seed")
+    CoreSim.simConfig("simWorkspace/matcher1").compile(new Matcher(f, HarrisConfig(), OrbDescriptorConfig(), mOneGroup))
+  }
+
+  /** Drives `stream` (features and frame ends) with random gaps (or none: each item as soon as the last is taken);
+    * the consumer is ready with probability `ready` (1: always) and, if `stallFor` > 0, not at all for that many
+    * clocks after the first frame end. */
   def runRtl(
       name: String,
       stream: Seq[Either[FrameEnd, Feature]],
       p: MatchParams,
       ready: Double,
-      stallFor: Int = 0
+      stallFor: Int = 0,
+      gaps: Boolean = true,
+      sim: SimCompiled[Matcher] = matcher,
+      m: MatcherConfig = m
   ): RtlMatches = {
     var out: RtlMatches = null
-    matcher.doSim(name, seed.toInt) { dut =>
+    sim.doSim(name, seed.toInt) { dut =>
       val r0 = rng(name)
       val in = dut.io.features
       in.valid #= false; in.x #= 0; in.y #= 0; in.bin #= 0; in.score #= 0; in.descriptor #= 0
@@ -65,7 +77,7 @@ class MatcherSpec extends AnyFunSuite {
       val keyFlags =
         stream.indices.map(i => stream.drop(i).collectFirst { case Left(e) => e.keyframe }.getOrElse(false))
       for ((item, i) <- stream.zipWithIndex) {
-        while (r0.nextInt(4) == 0) dut.clockDomain.waitSampling()
+        while (gaps && r0.nextInt(4) == 0) dut.clockDomain.waitSampling()
         in.valid #= true
         item match {
           case Right(ft) =>
@@ -144,10 +156,13 @@ class MatcherSpec extends AnyFunSuite {
       stream: Seq[Either[FrameEnd, Feature]],
       p: MatchParams,
       ready: Double = 1.0,
-      stallFor: Int = 0
+      stallFor: Int = 0,
+      gaps: Boolean = true,
+      sim: SimCompiled[Matcher] = matcher,
+      m: MatcherConfig = m
   ): (MatcherModel.Run, RtlMatches) = {
     val model = MatcherModel.run(stream, p, m)
-    val rtl = runRtl(name, stream, p, ready, stallFor)
+    val rtl = runRtl(name, stream, p, ready, stallFor, gaps, sim, m)
     val expected = model.correspondences
     assert(rtl.stored == model.store.features.size, s"$name: stored")
     assert(rtl.overflow == model.overflow, s"$name: overflow count")
@@ -250,6 +265,26 @@ class MatcherSpec extends AnyFunSuite {
         stallFor = 3000
       )
       assert(stalled.drops > 0, "a 3000-clock stall must outlast the timeout")
+    }
+  }
+
+  test("a store of one group: an empty keyframe, then at once a live frame and a keyframe, items back to back") {
+    val r = rng("one group")
+    def feature(): Either[FrameEnd, Feature] =
+      Right(Feature(
+        r.nextInt(128),
+        r.nextInt(128),
+        r.nextInt(512),
+        1000L * r.nextInt(8),
+        Vector.fill(32)(r.nextInt(256))
+      ))
+    def frame(n: Int, key: Boolean) = Seq.fill(n)(feature()) :+ Left(FrameEnd(ok = true, keyframe = key))
+    val stream = frame(4, key = true) ++ frame(3, key = false) ++ frame(0, key = true) ++ frame(1, key = false) ++
+      frame(0, key = false) ++ frame(3, key = true) ++ frame(3, key = false) ++ frame(6, key = true) ++
+      frame(2, key = false)
+    for (cross <- Seq(false, true)) {
+      val p = MatchParams(hammingThreshold = 256, ratio = None, crossCheck = cross)
+      check(s"one group, cross-check $cross", stream, p, gaps = false, sim = oneGroup, m = mOneGroup)
     }
   }
 }
