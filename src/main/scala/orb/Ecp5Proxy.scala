@@ -206,7 +206,7 @@ object Ecp5Proxy {
     bin
   }
 
-  private def resource(name: String, to: File): Unit = {
+  def resource(name: String, to: File): Unit = {
     val in = getClass.getResourceAsStream(s"/orb/report/$name")
     require(in != null, s"missing resource orb/report/$name")
     try Files.copy(in, to.toPath, StandardCopyOption.REPLACE_EXISTING)
@@ -294,8 +294,12 @@ object Ecp5Proxy {
     val report = new File(work, s"report_seed$seed.json")
     val sdf = new File(work, s"routed_seed$seed.sdf")
     val slackFile = new File(work, s"slack_seed$seed.txt")
+    // router2's congestion maps per iteration, for naming the congested blocks of a run that does not route
+    val heat = new File(work, s"heat_seed$seed")
     // nothing of an earlier run of this seed may be mistaken for this one's
     Seq(log, report, sdf, slackFile).foreach(_.delete())
+    Option(heat.listFiles()).foreach(_.foreach(_.delete()))
+    heat.mkdirs()
     println(s"${Report.app}: $module: place and route, seed $seed (at most $minutes min of routing)")
     val pnr = Process(
       Seq(
@@ -312,6 +316,8 @@ object Ecp5Proxy {
         "--router",
         "router2",
         "--timing-allow-fail",
+        "--router2-heatmap",
+        s"${heat.getName}/h",
         "--report",
         report.getName,
         "--sdf",
@@ -349,7 +355,8 @@ object Ecp5Proxy {
     val finished = !pnr.isAlive()
     if (!finished) pnr.destroy()
     val seconds = (System.nanoTime() - started) / 1e9
-    def unroutable(why: String) = Run(seed, None, why, None, seconds)
+    def unroutable(why: String) =
+      Run(seed, None, congestion(work, s"${heat.getName}/h").fold(why)(where => s"$why; $where"), None, seconds)
     if (!finished) return unroutable(stalled.getOrElse(s"unroutable: routing did not finish in $minutes min"))
     if (pnr.exitValue() != 0 || !report.isFile)
       return unroutable(s"nextpnr failed (status ${pnr.exitValue()}); see ${log.getPath}")
@@ -378,6 +385,14 @@ object Ecp5Proxy {
       seconds,
       slack.toSeq
     )
+  }
+
+  /** The blocks that crowd the overused wires, from router2's heat maps `work/prefix_*` (`netlist.py congestion`,
+    * which `work` must hold): "congested: core.budget 73 %, ...", or None when the maps show no overused wire. */
+  def congestion(work: File, prefix: String): Option[String] = {
+    val where = new StringBuilder
+    Process(Seq("python3", "netlist.py", "congestion", prefix), work).!(ProcessLogger(l => where ++= l, _ => ()))
+    Some(where.toString).filter(_.startsWith("congested"))
   }
 
   /** The one-line JSON of `netlist.py path`. */

@@ -63,6 +63,28 @@ class ReportSpec extends AnyFunSuite {
       Set("io_a" -> 16, "io_b" -> 16, "io_product" -> 32, "clk" -> 1, "reset" -> 1))
   }
 
+  test("an unroutable run names the congested blocks from router2's heat maps") {
+    val work = new File("target/report-test/congestion")
+    Option(work.listFiles()).foreach(_.foreach(_.delete()))
+    work.mkdirs()
+    Ecp5Proxy.resource("netlist.py", new File(work, "netlist.py"))
+    assert(Ecp5Proxy.congestion(work, "h").isEmpty, "no heat maps: nothing to name")
+    def map(iteration: Int, lines: String*): Unit =
+      Report.write(new File(work, s"h_congestion_by_net_$iteration.csv"), lines.mkString("", "\n", "\n"))
+    // the second iteration has the fewest overused wires: its shares count, block names as the report's
+    map(1, "dut.core.descriptors.store_1_a[2],40", "dut.core.budget.banks_0_1_2_score[3],10")
+    map(
+      2,
+      "dut.core.budget.banks_0_1_2_score[3],6",
+      "dut.core.budget.emission_x,3",
+      "dut.matcher_1.lanes_0_q,2",
+      "dut._zz_readData[1],1",
+      "regs_sources_1,0"
+    )
+    assert(Ecp5Proxy.congestion(work, "h") ==
+      Some("congested: core.budget 75 %, matcher 17 %, top 8 % of the nets on overused wires (iteration 2)"))
+  }
+
   test("report.json and report.md for the default configuration, without timing") {
     val dir = new File("target/report-test")
     Report.run(Report.Options(out = dir.getPath, timing = false))

@@ -36,11 +36,27 @@ logic and routing delay, the largest fan-out on the path and its net, the RTL li
 delays, the largest of min:typ:max as nextpnr's own analysis takes): arrival times over the whole netlist, the
 endpoints whose slack at PERIOD_NS is negative, grouped by source and sink register (names from NETLIST, bit indices
 dropped), worst first; N groups (default 40). One routed run thus shows every path to fix, not only the worst.
+
+`congestion PREFIX`: where a routing failed, from router2's heat maps (`--router2-heatmap PREFIX`): in the iteration
+with the fewest overused wires, each block's share of the nets on them, largest
+first (a net counted once per overused wire it takes), as one line.
 """
+import glob
 import json
 import re
 import sys
 from collections import defaultdict
+
+
+def block(name):
+    """the block of a netlist name, as the report names them: core.<block> inside the core, <block> beside it
+    (Spinal's instance suffix dropped), top for the core top's own nets, wrapper for the proxy's"""
+    parts = name.split(".")
+    if parts[0] != "dut":
+        return "wrapper"
+    if len(parts) > 3 and parts[1] == "core":
+        return "core." + re.sub(r"_\d+$", "", parts[2])
+    return re.sub(r"_\d+$", "", parts[1]) if len(parts) > 2 else "top"
 
 
 def sinks_of(module):
@@ -451,10 +467,6 @@ def slack(sdf_file, netlist_file, period, groups_shown=40):
         """a register's name with its numbers (bits, slots, lanes, copies) as '#'"""
         return re.sub(r"\d+", "#", name)
 
-    def block(name):
-        parts = name.split(".")
-        return ".".join(parts[:3]) if len(parts) > 3 and parts[1] == "core" else ".".join(parts[:2])
-
     found, blocks = {}, defaultdict(lambda: [0.0, 0])
     failing = 0
     for pin, su in setup.items():
@@ -492,6 +504,28 @@ def slack(sdf_file, netlist_file, period, groups_shown=40):
         print(f"{s:7.2f}  " + "  ".join(hops))
 
 
+def congestion(prefix):
+    best = None
+    for name in glob.glob(glob.escape(prefix) + "_congestion_by_net_*.csv"):
+        iteration = int(re.search(r"_(\d+)\.csv$", name).group(1))
+        per_block = defaultdict(int)
+        with open(name) as f:
+            for line in f:
+                net, _, count = line.strip().rpartition(",")
+                if net and count.isdigit():
+                    per_block[block(net)] += int(count)
+        total = sum(per_block.values())
+        if total and (best is None or (total, iteration) < (best[0], best[1])):
+            best = (total, iteration, per_block)
+    if best is None:
+        print("no overused wire in the heat maps")
+        return
+    total, iteration, per_block = best
+    shares = sorted(per_block.items(), key=lambda kv: -kv[1])
+    shown = [f"{b} {100.0 * n / total:.0f} %" for b, n in shares if 100.0 * n / total >= 1][:6]
+    print(f"congested: " + ", ".join(shown) + f" of the nets on overused wires (iteration {iteration})")
+
+
 if __name__ == "__main__":
     if len(sys.argv) == 5 and sys.argv[1] == "pack":
         pack(*sys.argv[2:5])
@@ -501,5 +535,7 @@ if __name__ == "__main__":
         path(*sys.argv[2:4])
     elif len(sys.argv) in (5, 6) and sys.argv[1] == "slack":
         slack(*sys.argv[2:])
+    elif len(sys.argv) == 3 and sys.argv[1] == "congestion":
+        congestion(sys.argv[2])
     else:
         sys.exit(__doc__)
