@@ -145,15 +145,18 @@ final case class CornerParams(
   *
   * Rule (`orb.model.BudgetModel` is its specification):
   *  1. Cells. The frame is cut into cells of `cellWidth` columns x `cellHeight` rows (aligned to x = 0, y = 0);
-  *     of the corners of a cell only the `perCell` strongest survive (the first in raster order on ties). This
+  *     of the corners of a cell only the `perCell` strongest survive, ranked by their score's level at
+  *     `rankFracBits` (the leading one's position and the bits after it: each octave in 16 parts by default, so a
+  *     cell's lists compare 9 bits instead of the default scores' 27; the first in raster order on ties). This
   *     bounds the density by construction, so that the descriptor engine and the matcher serve every survivor at
   *     one pixel per clock for any line length and no blanking at all (`OrbConfig.budgetService` checks it for
   *     every line length; lines too short for `perCell` get fewer per cell, `OrbConfig.perCellFor`).
   *  2. Frame target. The cell winners are ranked in score levels (the leading one's position and the
   *     `levelFracBits` bits after it: each octave in four equal parts by default). From the winners' level
   *     histogram of a good frame the core takes for the next frame the cut level L and remainder r that give
-  *     exactly `target` features: every winner above level L, the first r in raster order at level L. A frame never gets more than `target` features (winners past it are
-  *     deselected); with no history (after reset) the first `target` winners in raster order are taken.
+  *     exactly `target` features: every winner above level L, the first r in raster order at level L. A frame
+  *     never gets more than `target` features (winners past it are deselected); with no history (after reset) the
+  *     first `target` winners in raster order are taken.
   * So a still scene gives exactly min(target, winners) features from its second frame on; in video the cut
   * follows the scene one frame late. A corner that does not become a feature is deselected and counted.
   *
@@ -171,6 +174,7 @@ case class BudgetConfig(
     cellHeight: Int = 4,
     perCell: Int = 4,
     levelFracBits: Int = 2,
+    rankFracBits: Int = 4,
     defaultTarget: Int = 500
 ) {
   require(isPow2(cellWidth) && isPow2(cellHeight), "cells are powers of two wide and tall")
@@ -184,6 +188,7 @@ case class BudgetConfig(
   )
   require(perCell >= 1 && perCell <= 16)
   require(levelFracBits >= 0 && levelFracBits <= 4)
+  require(rankFracBits >= 0 && rankFracBits <= 8)
   require(defaultTarget >= 0 && defaultTarget <= BudgetConfig.targetMax)
   def cellShift: Int = log2Up(cellWidth)
   def bandShift: Int = log2Up(cellHeight)
@@ -194,6 +199,7 @@ case class BudgetConfig(
   def emitRowOffset: Int = HarrisConfig.reach + 1
   def levels(scoreWidth: Int): Int = scoreWidth << levelFracBits
   def levelWidth(scoreWidth: Int): Int = log2Up(levels(scoreWidth))
+  def rankWidth(scoreWidth: Int): Int = log2Up(scoreWidth << rankFracBits)
 
   /** Cells of width W whose columns meet the corners' columns [border, W - 1 - border]. */
   def cellsWithCorners(width: Int, border: Int): Int =

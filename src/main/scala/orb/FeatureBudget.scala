@@ -7,8 +7,8 @@ import spinal.lib._
   * (`BudgetConfig` states the rule, `orb.model.BudgetModel` is its specification).
   *
   * Cells: the corners of a band of `cellHeight` rows go into one of two banks (bands alternate), one list per cell
-  * of its `perCell` strongest so far, sorted by score (first in raster order on ties); a corner that does not make
-  * its cell's list, or that one pushes out, is deselected at once. When the first pixel of row
+  * of its `perCell` strongest so far, sorted by rank (`BudgetModel.rank`; first in raster order on ties); a corner
+  * that does not make its cell's list, or that one pushes out, is deselected at once. When the first pixel of row
   * (band end + `emitRowOffset`) is processed, the band is complete: its lists leave, one winner per clock, in raster
   * order (the smallest row offset, then column, of what is left), and the bank is empty again long before the band
   * two later needs it. Each winner's score level goes into the frame's histogram and is checked against the cut and
@@ -38,6 +38,7 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
   val k = b.perCell
   val levels = b.levels(h.scoreWidth)
   val levelWidth = b.levelWidth(h.scoreWidth)
+  val rankWidth = b.rankWidth(h.scoreWidth)
   val maxWinners = k * cells * ((f.maxHeight + b.cellHeight - 1) / b.cellHeight)
   val countWidth = log2Up(maxWinners + 1)
 
@@ -46,6 +47,9 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
     val xOffset = UInt(b.cellShift bits)
     val yOffset = UInt(b.bandShift bits)
     val score = UInt(h.scoreWidth bits)
+
+    /** the score's rank (`BudgetModel.rank`): what the list compares */
+    val rank = UInt(rankWidth bits)
   }
   def emptyEntry: Entry = {
     val e = Entry()
@@ -53,8 +57,33 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
     e.xOffset := 0
     e.yOffset := 0
     e.score := 0
+    e.rank := 0
     e
   }
+
+  /** The leading one's position of a score (`BudgetModel.levelOf`, first step). */
+  def leadOf(score: UInt): UInt = {
+
+    /** (any bit set, the highest set bit's position) of `bits`, as a balanced tree of halves */
+    def highest(bits: Seq[Bool]): (Bool, UInt) =
+      if (bits.size == 1) (bits.head, U(0, 0 bits))
+      else {
+        val half = 1 << (log2Up(bits.size) - 1)
+        val (loAny, lo) = highest(bits.take(half))
+        val (hiAny, hi) = highest(bits.drop(half))
+        val width = log2Up(bits.size)
+        (loAny || hiAny, Mux(hiAny, True ## hi.resize(width - 1), False ## lo.resize(width - 1)).asUInt)
+      }
+    highest(score.asBools.toSeq)._2.resize(log2Up(h.scoreWidth))
+  }
+
+  /** The leading one's position and the `fb` bits after it (`BudgetModel.levelOf`), from the position. */
+  def levelOf(score: UInt, lead: UInt, fb: Int, width: Int): UInt =
+    if (fb == 0) lead.resize(width)
+    else {
+      val frac = ((score @@ U(0, fb bits)) >> lead).resize(fb)
+      (lead @@ frac).resize(width)
+    }
 
   /** Corners kept per cell in this frame's line length: `OrbConfig.perCellFor`, from its steps. */
   val perCell = new Area {
@@ -68,30 +97,43 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
   for (bank <- banks; cell <- bank; e <- cell) e.valid.init(False)
 
   // A corner into its cell's list: every list compares and updates itself, beside its own registers, so no list is
-  // fetched through a multiplexer and nothing is forwarded. The corner is registered on the way in, with its list
-  // decoded (one-hot) and one copy of it per bank (kept apart); in the next clock every place of every list compares
-  // itself with the corner of its bank (`ahead`: valid and at least as strong, a prefix of the sorted list) into a
-  // register; in the clock after, the corner's list is updated: the entries ahead stay, the corner takes the first
-  // place after them, the rest move down one. Corners are at least two clocks apart after the 3x3 suppression, so a
+  // fetched through a multiplexer and nothing is forwarded. The corner is ranked on the way in (two registered
+  // steps), then registered with its list decoded (one-hot) and one copy of it per bank (kept apart); in the next
+  // clock every place of every list compares its rank with the corner's of its bank (`ahead`: valid and ranked at
+  // least as high, a prefix of the sorted list) into a register; in the clock after, the corner's list is updated:
+  // the entries ahead stay, the corner takes the first place after them, the rest move down one. Corners are at least two clocks apart after the 3x3 suppression, so a
   // corner compares with its list after the one before it has updated it.
   val intake = new Area {
     val cellWidth = log2Up(cells max 2)
     val lists = for (bank <- 0 until 2; cell <- 0 until cells) yield (bank, cell)
-    val bankIn = io.corners.y(b.bandShift downto b.bandShift)
-    val cellIn = io.corners.x(b.cellShift, cellWidth bits)
-    val arriving = new Area {
-      val valid = RegNext(io.corners.valid) init False
 
-      /** the corner, one copy per bank (kept apart): each feeds the comparisons of its bank's lists */
+    /** the corner's rank, in two registered steps (its leading one, then the bits after it) */
+    val ranked = new Area {
+      val first = io.corners.stage()
+      val lead = RegNext(leadOf(io.corners.score))
+      val corner = first.stage()
+      val rank = RegNext(levelOf(first.score, lead, b.rankFracBits, rankWidth))
+    }
+    val bankIn = ranked.corner.y(b.bandShift downto b.bandShift)
+    val cellIn = ranked.corner.x(b.cellShift, cellWidth bits)
+    val arriving = new Area {
+      val valid = RegNext(ranked.corner.valid) init False
+
+      /** the corner and its rank, one copy per bank (kept apart): each feeds the comparisons of its bank's lists */
       val corners = (0 until 2).map { _ =>
-        val r = RegNext(io.corners.payload)
+        val r = RegNext(ranked.corner.payload)
+        r.addAttribute("preserve")
+        r
+      }
+      val ranks = (0 until 2).map { _ =>
+        val r = RegNext(ranked.rank)
         r.addAttribute("preserve")
         r
       }
 
       /** its list, one-hot over (bank, cell) */
       val selects =
-        RegNext(Vec(lists.map { case (bank, cell) => io.corners.valid && bankIn === bank && cellIn === cell }))
+        RegNext(Vec(lists.map { case (bank, cell) => ranked.corner.valid && bankIn === bank && cellIn === cell }))
       selects.foreach(_.init(False))
     }
 
@@ -100,12 +142,13 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
     val compared = new Area {
       val valid = RegNext(arriving.valid) init False
       val corners = arriving.corners.map(RegNext(_))
+      val ranks = arriving.ranks.map(RegNext(_))
     }
     val perList =
       for (((bank, cell), l) <- lists.zipWithIndex) yield new Area {
         val list = banks(bank)(cell)
-        val corner = arriving.corners(bank)
-        val ahead = Vec((0 until k).map(i => RegNext(list(i).valid && list(i).score >= corner.score && inList(i))))
+        val rank = arriving.ranks(bank)
+        val ahead = Vec((0 until k).map(i => RegNext(list(i).valid && list(i).rank >= rank && inList(i))))
         val full = RegNext((0 until k).map(i => !inList(i) || list(i).valid).andR)
 
         /** the corner's list, one enable per place (kept apart): no one enable drives a whole list */
@@ -119,6 +162,7 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
         fresh.xOffset := compared.corners(bank).x.resize(b.cellShift)
         fresh.yOffset := compared.corners(bank).y.resize(b.bandShift)
         fresh.score := compared.corners(bank).score
+        fresh.rank := compared.ranks(bank)
         // Entries ahead of the corner stay, the corner takes the first place after them, the rest move down one; a
         // place beyond the line length's is emptied (only the valid flags are read of an empty entry).
         val updated = Vec.fill(k)(Entry())
@@ -142,7 +186,7 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
     val deselect = perList.map(_.deselects).orR
 
     /** a corner on its way into a list */
-    val busy = arriving.valid || compared.valid
+    val busy = ranked.first.valid || ranked.corner.valid || arriving.valid || compared.valid
   }
 
   // A band is complete at the first pixel of row (band end + emitRowOffset); its winners leave in raster order.
@@ -273,32 +317,6 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
     ram.write(RegNext(writeAddress), RegNext(writeData), RegNext(write) init False)
   }
 
-  /** The leading one's position of a score (`BudgetModel.level`, first step). */
-  def leadOf(score: UInt): UInt = {
-
-    /** (any bit set, the highest set bit's position) of `bits`, as a balanced tree of halves */
-    def highest(bits: Seq[Bool]): (Bool, UInt) =
-      if (bits.size == 1) (bits.head, U(0, 0 bits))
-      else {
-        val half = 1 << (log2Up(bits.size) - 1)
-        val (loAny, lo) = highest(bits.take(half))
-        val (hiAny, hi) = highest(bits.drop(half))
-        val width = log2Up(bits.size)
-        (loAny || hiAny, Mux(hiAny, True ## hi.resize(width - 1), False ## lo.resize(width - 1)).asUInt)
-      }
-    highest(score.asBools.toSeq)._2.resize(log2Up(h.scoreWidth))
-  }
-
-  /** The leading one's position and the `levelFracBits` bits after it (`BudgetModel.level`), from the position. */
-  def levelOf(score: UInt, lead: UInt): UInt = {
-    val fb = b.levelFracBits
-    if (fb == 0) lead.resize(levelWidth)
-    else {
-      val frac = ((score @@ U(0, fb bits)) >> lead).resize(fb)
-      (lead @@ frac).resize(levelWidth)
-    }
-  }
-
   // Winners, three clocks after they leave the bank (their score picked in the first, the leading one's position
   // in the second, the level in the third), against the cut and the target. The comparisons with the counts are
   // registered a clock ahead: winners are `FeatureBudget.winnerClocks` apart, so the counts have settled long
@@ -308,7 +326,7 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
     val scored = leading.stage()
     val lead = RegNext(leadOf(leading.score))
     val winner = scored.stage()
-    val level = RegNext(levelOf(scored.score, lead))
+    val level = RegNext(levelOf(scored.score, lead, b.levelFracBits, levelWidth))
     val target = io.target
     val room = RegNext(cut.taken < target) init False
     val roomAtCut = RegNext(cut.atCut < cut.remainder) init False

@@ -23,10 +23,11 @@ class BudgetModelSpec extends AnyFunSuite {
       val e = 63 - java.lang.Long.numberOfLeadingZeros(s)
       assert(BudgetModel.level(s, b) == 4 * e + math.floor(4 * (s.toDouble / (1L << e) - 1)).toInt, s"score $s")
       assert(BudgetModel.level(s + 1, b) >= BudgetModel.level(s, b), "levels grow with the score")
+      assert(BudgetModel.rank(s, b) == 16 * e + math.floor(16 * (s.toDouble / (1L << e) - 1)).toInt, s"score $s")
     }
   }
 
-  test("cells keep their k strongest, the first in raster order on ties") {
+  test("cells keep their k highest ranked, the first in raster order on ties") {
     val cs =
       Seq(Corner(10, 1, 5), Corner(20, 1, 9), Corner(30, 2, 5), Corner(40, 3, 7), Corner(300, 0, 1), Corner(12, 4, 3))
     assert(BudgetModel.cellWinners(cs, 2, b) == Seq(
@@ -43,6 +44,14 @@ class BudgetModelSpec extends AnyFunSuite {
       Corner(12, 4, 3)
     ))
     assert(BudgetModel.cellWinners(cs, 0, b).isEmpty)
+    // ranked in sixteenths of an octave: 1000 and 1010 share one (both in 31/16 of 2^9), so the first one stays
+    val close = Seq(Corner(10, 1, 1000), Corner(20, 1, 1010), Corner(30, 1, 900))
+    assert(BudgetModel.rank(1000, b) == BudgetModel.rank(1010, b) && BudgetModel.rank(900, b) < BudgetModel.rank(
+      1000,
+      b
+    ))
+    assert(BudgetModel.cellWinners(close, 1, b) == Seq(Corner(10, 1, 1000)))
+    assert(BudgetModel.cellWinners(close, 2, b) == Seq(Corner(10, 1, 1000), Corner(20, 1, 1010)))
   }
 
   test("the cut gives exactly the target on the frame it was learnt from, for any histogram") {

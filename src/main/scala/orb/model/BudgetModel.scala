@@ -18,21 +18,27 @@ object BudgetModel {
   /** How a frame's corners fared. */
   final case class FrameSelection(selected: Seq[Corner], deselected: Int, dropped: Int, histogram: IndexedSeq[Int])
 
-  /** The leading one's position and the `f` bits after it: each octave of scores in 2^f equal parts (0 for 0). */
-  def level(score: Long, cfg: BudgetConfig): Int =
+  /** The leading one's position and the `fracBits` bits after it: each octave of scores in 2^fracBits equal parts (0
+    * for 0). */
+  def levelOf(score: Long, fracBits: Int): Int =
     if (score <= 0) 0
     else {
       val e = 63 - java.lang.Long.numberOfLeadingZeros(score)
-      val f = cfg.levelFracBits
-      (e << f) | (((score << f) >> e) & ((1 << f) - 1)).toInt
+      (e << fracBits) | (((score << fracBits) >> e) & ((1 << fracBits) - 1)).toInt
     }
+
+  /** A winner's level in the frame's histogram. */
+  def level(score: Long, cfg: BudgetConfig): Int = levelOf(score, cfg.levelFracBits)
+
+  /** A corner's rank in its cell: its score's level at `rankFracBits`. */
+  def rank(score: Long, cfg: BudgetConfig): Int = levelOf(score, cfg.rankFracBits)
 
   def cellOf(c: Corner, cfg: BudgetConfig): (Int, Int) = (c.y >> cfg.bandShift, c.x >> cfg.cellShift)
 
-  /** The `k` strongest corners of every cell (the first in raster order on ties), in raster order. */
+  /** The `k` highest ranked corners of every cell (the first in raster order on ties), in raster order. */
   def cellWinners(corners: Seq[Corner], k: Int, cfg: BudgetConfig): Seq[Corner] =
     corners.zipWithIndex.groupBy { case (c, _) => cellOf(c, cfg) }.values
-      .flatMap(_.sortBy { case (c, i) => (-c.score, i) }.take(k)).toSeq.sortBy(_._2).map(_._1)
+      .flatMap(_.sortBy { case (c, i) => (-rank(c.score, cfg), i) }.take(k)).toSeq.sortBy(_._2).map(_._1)
 
   /** The beat (raster index) at which the band of row `y` is emitted. */
   def emitBeat(y: Int, width: Int, cfg: BudgetConfig): Long =

@@ -40,6 +40,7 @@ object Trace {
       "Harris response R" -> response.toString,
       "segment test" -> segment.fold("off")(p => if (p) "passes" else "fails"),
       scoreName -> score.toString,
+      "budget rank in its cell (octave, sixteenth)" -> BudgetModel.rank(score, cfg.budget).toString,
       "budget level (octave, quarter)" -> BudgetModel.level(score, cfg.budget).toString,
       "moment m10" -> m10.toString,
       "moment m01" -> m01.toString,
