@@ -16,6 +16,31 @@ object Arith {
     if (terms.isEmpty) U(0, width bits) else terms.reduceBalancedTree(_ + _)
   }
 
+  /** v * k for a constant k >= 0 as `constMul`, its terms reduced by 3:2 compressors (a LUT level each) into one
+    * adder: a single carry chain however many bits k has set. */
+  def constMulCarrySave(v: UInt, k: Int, width: Int): UInt = {
+    require(k >= 0)
+    carrySaveSum((0 until 31).filter(b => ((k >> b) & 1) == 1).map(b => v.resize(width) |<< b), width)
+  }
+
+  /** the sum of `terms` (plus one if `plusOne`) modulo 2^width: three terms into a sum and a carry word while more
+    * than two remain, then one adder; the one takes the first carry word's free low bit */
+  def carrySaveSum(terms: Seq[UInt], width: Int, plusOne: Boolean = false): UInt =
+    terms.map(_.resize(width)) match {
+      case Seq() => U(if (plusOne) 1 else 0, width bits)
+      case Seq(a) => if (plusOne) a + 1 else a
+      case Seq(a, b) if !plusOne => a + b
+      case Seq(a, b) => carrySaveSum(Seq(a, b, U(1, width bits)), width)
+      case Seq(a, b, c, rest @ _*) =>
+        val sum = a ^ b ^ c
+        val carry = (((a & b) | (a & c) | (b & c)) |<< 1) | U(if (plusOne) 1 else 0, width bits)
+        carrySaveSum(rest ++ Seq(sum, carry), width)
+    }
+
+  /** `carrySaveSum` of signed terms (two's complement modulo 2^width) */
+  def carrySaveSumSigned(terms: Seq[SInt], width: Int, plusOne: Boolean = false): SInt =
+    carrySaveSum(terms.map(_.resize(width).asUInt), width, plusOne).asSInt
+
   /** v * k for a constant k >= 0 and a signed v, as shifted copies added and subtracted (k = 2^a - 2^b - ... where
     * that takes fewer terms); `width` bits out. */
   def constMulSigned(v: SInt, k: Int, width: Int): SInt = {

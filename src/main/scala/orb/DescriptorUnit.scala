@@ -187,9 +187,7 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
     o
   }
 
-  /** The features leave through a half-rate register (`halfPipe`: valid, ready and the payload's load enable all
-    * registers, so the matcher's readiness does not reach the engine's state or the 256-bit payload through logic;
-    * one feature per two clocks, where they come at most one per descriptor). */
+  /** The oldest slot's feature or a frame's end, offered to the output register (`leaving`). */
   val output = Stream(FeatureHw(f, h, d))
 
   val engine = new DescriptorEngine
@@ -263,8 +261,10 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
     /** its patch's oldest row goes at the next row start: `rowsLeft === 1`, a register beside the count */
     val onLastRow = RegNext(rowsLeft.getAheadValue() === 1) init False
 
-    /** a row start overwrote the oldest row before the descriptor was complete */
-    val abandon = ring.rowStart && running && onLastRow
+    /** a row start overwrites the oldest row before the descriptor is complete: decided a clock ahead (the row start
+      * is known then) into a register, so the front end's enables do not wait for the slot's state */
+    val abandon =
+      RegNext(ring.startsRow && state.getAheadValue() === EngineState.RUN && onLastRow.getAheadValue()) init False
 
     def begin(c: PreparedCorner, b: UInt, left: UInt): Unit = {
       state := EngineState.RUN
@@ -319,8 +319,14 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
     /** the slot named by `tag` is abandoned in this clock */
     def abandons(tag: Bool): Bool = pick(tag)(_.abandon)
 
-    /** the slot whose feature leaves next: the oldest corner in the engine */
+    /** the slot whose feature leaves next (the oldest corner in the engine), and copies of it (kept apart), each
+      * choosing a part of the descriptor for the output register */
     val outTag = RegInit(False)
+    val outTags = Seq.fill(DescriptorUnit.outputParts) {
+      val t = RegInit(False)
+      t.addAttribute("preserve")
+      t
+    }
 
     def begin(c: PreparedCorner, b: UInt, left: UInt): Unit = {
       for (s <- slots) {
@@ -342,6 +348,9 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
         s.leavesNext := !s.leavesNext
       }
       outTag := !outTag
+      for (t <- outTags) {
+        t := !t
+      }
     }
 
     /** Advances the front end: low while the issue stage repeats a group (registered: see `issue`). */
@@ -566,15 +575,20 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
       val slot = UInt(slotWidth bits)
       val column = UInt(colWidth bits)
     }
-    // the patch's base slot and the corner's column, of the slot of the rotated group
-    val base = pick(rotated.token.tag)(_.base)
-    val column = pick(rotated.token.tag)(_.corner.corner.x)
+    // the patch's base slot (and it less the ring's rows) and the corner's column, of the group's slot: picked as
+    // the group enters `rotated` and registered beside it, so the slot's tag does not reach the sums below
+    val entering = sums.token.tag
+    val base = step(pick(entering)(_.base).resize(slotWidth + 2))
+    val baseBack = step(pick(entering)(_.base).resize(slotWidth + 2).asSInt - S(rows, slotWidth + 2 bits))
+    val column = step(pick(entering)(_.corner.corner.x))
     val located = new Area {
       val token = stepToken(rotated.token)
       val points = (0 until pointsPerGroup).map { i =>
         val o = Located()
-        val near = base.resize(slotWidth + 2) + rotated.rowOffset(i).resize(slotWidth + 2)
-        val wrapped = near.asSInt - S(rows, slotWidth + 2 bits)
+        // the slot and the slot less the ring's rows, side by side: the second's sign picks
+        val offset = rotated.rowOffset(i).resize(slotWidth + 2)
+        val near = base + offset
+        val wrapped = baseBack + offset.asSInt
         o.slot := Mux(wrapped.msb, near, wrapped.asUInt).resize(slotWidth)
         o.column := (column.intoSInt + rotated.rx(i)).asUInt.resize(colWidth)
         step(o)
@@ -726,13 +740,15 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
       val address = ports.map(p => Mux(p.hits(bank % 4), p.address, U(0, addrWidth bits))).reduceBalancedTree(_ | _)
       (ports.map(_.hits(bank % 4)).orR, address)
     }
-    // the data of every bank port, registered (the RAM's output register), two clocks after the cluster copies
+    // the data of every bank port, registered (the RAM's output register), three clocks after the cluster copies
+    // (the bank port's registers beside the RAM, the RAM, its output register)
     val portA = Vec(UInt(8 bits), banks)
     val portBData = Vec(UInt(8 bits), banks)
     val back = new Area {
-      val reads4 = delayed(read.reads3)
+      // the reads as the RAMs give their data (a clock more than the numbers say: the bank ports' registers)
+      val reads4 = delayed(delayed(read.reads3))
       val reads5 = delayed(reads4)
-      val bank4 = RegNext(read.bank3)
+      val bank4 = RegNext(RegNext(read.bank3))
       val bank5 = RegNext(bank4)
       // level 1: within each cluster, by the bank's low bits (beside the banks)
       def dataOf(l: Int): Vec[UInt] = if (l < lanesPerPort) portA else portBData
@@ -786,6 +802,8 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
   // The store: bank b holds ring slots 2b and 2b + 1 at (slot & 1) ## column (a single slot has no such bit).
   // Port A writes the stream, which has priority (no point reads the written row's bank through port A: see
   // `DescriptorSchedule`), or reads the A lanes; port B reads the B lanes.
+  // the written data a clock later, as the bank ports' registers delay the writes (one copy per cluster)
+  val writeData = ring.writeData.map(RegNext(_))
   val store =
     for (b <- 0 until banks) yield new Area {
       val pair = 2 * b + 1 < rows
@@ -795,9 +813,19 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
       val (enableA, addressA) = engine.portRead(b, portB = false)
       val (enableB, addressB) = engine.portRead(b, portB = true)
       def local(a: UInt): UInt = a.resize(log2Up(depth))
-      val a =
-        ram.readWriteSync(local(Mux(w, ring.writeAddress(b / 4), addressA)), ring.writeData(b / 4), w || enableA, w)
-      val bRead = ram.readSync(local(addressB), enableB)
+      // every port's address and enable registered beside the RAM, the write with them (reads and writes keep their
+      // order): the RAM's inputs come from plain registers, not through the lanes' choice
+      val writing = RegNext(w) init False
+      val portA = new Area {
+        val address = RegNext(local(Mux(w, ring.writeAddress(b / 4), addressA)))
+        val enable = RegNext(w || enableA) init False
+      }
+      val portB = new Area {
+        val address = RegNext(local(addressB))
+        val enable = RegNext(enableB) init False
+      }
+      val a = ram.readWriteSync(portA.address, writeData(b / 4), portA.enable, writing)
+      val bRead = ram.readSync(portB.address, portB.enable)
       engine.portA(b) := RegNext(a)
       engine.portBData(b) := RegNext(bRead)
     }
@@ -821,7 +849,43 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
   when(engineDrop) {
     engine.handOn()
   }
-  io.features << output.halfPipe()
+
+  /** The features leave through a half-rate register (as `halfPipe`: its valid, the offer's ready and the payload's
+    * load enable all registers, so the matcher's readiness does not reach the engine's state or the 256-bit payload
+    * through logic; one feature per two clocks, where they come at most one per descriptor). The load enable and the
+    * oldest slot's tag have a copy per part of the descriptor (kept apart): no one flag drives the whole payload. */
+  val leaving = new Area {
+    val full = RegInit(False)
+    val payload = Reg(FeatureHw(f, h, d))
+    output.ready := !full
+    when(output.valid) {
+      full := True
+    }
+    when(full && io.features.ready) {
+      full := False
+    }
+    val loads = Seq.fill(DescriptorUnit.outputParts) {
+      val l = RegNext(!full.getAheadValue()) init True
+      l.addAttribute("preserve")
+      l
+    }
+    when(loads.head) {
+      payload.x := output.x
+      payload.y := output.y
+      payload.bin := output.bin
+      payload.score := output.score
+      payload.keyframe := output.keyframe
+      payload.end := output.end
+    }
+    val partBits = OrbDescriptorConfig.descriptorBits / loads.size
+    for (((load, tag), p) <- loads.zip(engine.outTags).zipWithIndex) {
+      when(load) {
+        payload.descriptor(p * partBits, partBits bits) := engine.pick(tag)(_.descriptor(p * partBits, partBits bits))
+      }
+    }
+    io.features.valid := full
+    io.features.payload := payload
+  }
 
   val drops = Reg(f.counter()) init 0
   // the queue's refusal registered first (a clock late: no counter waits for the queue's pointers)
@@ -845,7 +909,7 @@ object DescriptorUnit {
 
   /** Clocks from a corner's last read issue to its finished descriptor: the reads, the comparison and the
     * collection. */
-  val backLatency: Int = 9
+  val backLatency: Int = 10
 
   /** Clocks from a corner's start to its finished descriptor beyond its read issues, with no earlier group ahead of
     * it in the front end. */
@@ -864,6 +928,9 @@ object DescriptorUnit {
 
   /** copies of a slot's "group collected" flag, each enabling a part of its descriptor */
   val collectCopies: Int = 4
+
+  /** parts of the output register's descriptor, each loaded by its own copy of the load enable and the slot's tag */
+  val outputParts: Int = 8
 
   /** Clocks the engine takes for a corner of bin `bin` whose patch's oldest row is in ring slot `base`, from its
     * start to its finished descriptor, when no earlier group is ahead of it in the front end; up to

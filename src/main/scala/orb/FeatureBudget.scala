@@ -98,11 +98,12 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
 
   // A corner into its cell's list: every list compares and updates itself, beside its own registers, so no list is
   // fetched through a multiplexer and nothing is forwarded. The corner is ranked on the way in (two registered
-  // steps), then registered with its list decoded (one-hot) and one copy of it per bank (kept apart); in the next
-  // clock every place of every list compares its rank with the corner's of its bank (`ahead`: valid and ranked at
-  // least as high, a prefix of the sorted list) into a register; in the clock after, the corner's list is updated:
-  // the entries ahead stay, the corner takes the first place after them, the rest move down one. Corners are at least two clocks apart after the 3x3 suppression, so a
-  // corner compares with its list after the one before it has updated it.
+  // steps), then registered with its list decoded (one-hot), one copy of it per bank and one of its rank per list
+  // (kept apart); in the next clock every place of every list compares its rank with the corner's (`aheads`: valid
+  // and ranked at least as high, a prefix of the sorted list) into registers; in the clock after, the corner's list
+  // is updated: the entries ahead stay, the corner takes the first place after them, the rest move down one.
+  // Corners are at least two clocks apart after the 3x3 suppression, so a corner compares with its list after the
+  // one before it has updated it.
   val intake = new Area {
     val cellWidth = log2Up(cells max 2)
     val lists = for (bank <- 0 until 2; cell <- 0 until cells) yield (bank, cell)
@@ -125,7 +126,9 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
         r.addAttribute("preserve")
         r
       }
-      val ranks = (0 until 2).map { _ =>
+
+      /** its rank, one copy per list (kept apart): each feeds the comparisons of one list */
+      val ranks = lists.map { _ =>
         val r = RegNext(ranked.rank)
         r.addAttribute("preserve")
         r
@@ -147,8 +150,15 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
     val perList =
       for (((bank, cell), l) <- lists.zipWithIndex) yield new Area {
         val list = banks(bank)(cell)
-        val rank = arriving.ranks(bank)
-        val ahead = Vec((0 until k).map(i => RegNext(list(i).valid && list(i).rank >= rank && inList(i))))
+        val rank = arriving.ranks(l)
+        // two copies (kept apart): one for whether place i stays, one for whether place i + 1 takes the corner
+        val aheads = Seq.fill(2)(Vec((0 until k).map { i =>
+          val a = RegNext(list(i).valid && list(i).rank >= rank && inList(i))
+          a.addAttribute("preserve")
+          a
+        }))
+        val stays = aheads(0)
+        val takesAfter = aheads(1)
         val full = RegNext((0 until k).map(i => !inList(i) || list(i).valid).andR)
 
         /** the corner's list, one enable per place (kept apart): no one enable drives a whole list */
@@ -162,7 +172,7 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
         fresh.xOffset := compared.corners(bank).x.resize(b.cellShift)
         fresh.yOffset := compared.corners(bank).y.resize(b.bandShift)
         fresh.score := compared.corners(bank).score
-        fresh.rank := compared.ranks(bank)
+        fresh.rank := compared.ranks(l)
         // Entries ahead of the corner stay, the corner takes the first place after them, the rest move down one; a
         // place beyond the line length's is emptied (only the valid flags are read of an empty entry).
         val updated = Vec.fill(k)(Entry())
@@ -171,9 +181,9 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
           if (i == 0) e := fresh
           else {
             e := list(i - 1)
-            when(ahead(i - 1)) { e := fresh }
+            when(takesAfter(i - 1)) { e := fresh }
           }
-          when(ahead(i)) { e := list(i) }
+          when(stays(i)) { e := list(i) }
           when(!inList(i)) { e.valid := False }
         }
         for (i <- 0 until k) when(writes(i)) { list(i) := updated(i) }

@@ -80,7 +80,10 @@ class FrameTracker(c: FrameConfig) extends Component {
 
   // The frame state this pixel is checked against (after a start of frame, the new frame's).
   val cur = new Area {
-    val start = starts
+    // a copy of `starts` (kept apart) for this beat's checks and the next state's comparisons: `starts` itself
+    // loads the frame's fields
+    val start = RegNext(io.pixels.valid && io.pixels.sof) init False
+    start.addAttribute("preserve")
 
     /** the frame before was good: its geometry becomes the expected one */
     val learnt = inFrame && close.good
@@ -98,6 +101,9 @@ class FrameTracker(c: FrameConfig) extends Component {
     val keyNow = Mux(start, b.keyframe, key)
     val xNow = Mux(start, U(0, cw bits), x)
     val yNow = Mux(start, U(0, cw bits), y)
+    // xNow + 1 and yNow + 1, the adders on the registers beside the start's choice (not behind it)
+    val xNowPlusOne = Mux(start, U(1, cw bits), x + 1)
+    val yNowPlusOne = Mux(start, U(1, cw bits), y + 1)
     // the comparisons for this beat: after a start of frame x = y = 0 against the new frame's limits
     val expW0 = Mux(learnt, known.lineW0, known.expW0)
     val expW1 = Mux(learnt, known.lineW1, known.expW1)
@@ -182,13 +188,13 @@ class FrameTracker(c: FrameConfig) extends Component {
         // the next line: x = 0 against the (possibly learnt) width; y one more (saturating at maxHeight)
         val learns = !next.keep
         widthKnown := cur.widthKnownNow || learns
-        lineW := Mux(next.keep, cur.lineWNow, cur.xNow + 1)
+        lineW := Mux(next.keep, cur.lineWNow, cur.xNowPlusOne)
         known.lineW0 := next.keep && cur.lineW0
         known.lineW1 := Mux(next.keep, cur.lineW1, cur.xZero)
         known.lineW2 := Mux(next.keep, cur.lineW2, next.xIsOne)
         known.lineWm1 := Mux(next.keep, cur.lineWm1, cur.xNow)
         val knownAfter = cur.widthKnownNow || learns
-        known.remW := Mux(knownAfter, Mux(next.keep, cur.lineWNow, cur.xNow + 1), U(c.maxWidth, cw bits)).resize(
+        known.remW := Mux(knownAfter, Mux(next.keep, cur.lineWNow, cur.xNowPlusOne), U(c.maxWidth, cw bits)).resize(
           remWidth
         ).asSInt
         known.wOver := knownAfter && next.keep && cur.lineW0
@@ -196,7 +202,7 @@ class FrameTracker(c: FrameConfig) extends Component {
         x := 0
         known.xZero := True
         known.xMax := False
-        y := Mux(cur.yMax, cur.yNow, cur.yNow + 1)
+        y := Mux(cur.yMax, cur.yNow, cur.yNowPlusOne)
         known.remH := Mux(cur.yMax, next.remH, next.remHm1)
         known.hOver := Mux(cur.yMax, cur.hOver, next.hNear)
         known.hLast := Mux(cur.yMax, cur.hLast, next.hNext)
@@ -213,7 +219,7 @@ class FrameTracker(c: FrameConfig) extends Component {
         known.lineW1 := cur.lineW1
         known.lineW2 := cur.lineW2
         known.lineWm1 := cur.lineWm1
-        x := Mux(cur.xMax, cur.xNow, cur.xNow + 1)
+        x := Mux(cur.xMax, cur.xNow, cur.xNowPlusOne)
         known.remW := Mux(cur.xMax, next.remW, next.remWm1)
         known.wOver := Mux(cur.xMax, cur.wOver, next.wNear)
         known.wLast := Mux(cur.xMax, cur.wLast, next.wNext)

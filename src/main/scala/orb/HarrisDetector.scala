@@ -114,15 +114,20 @@ class HarrisDetector(f: FrameConfig, h: HarrisConfig, columnRows: Int, stages: H
       bias: Option[SInt] = None
   ): SInt = {
     require(values.size == 7)
-    val outer = values(0).resize(width) + values(6).resize(width)
-    // a bias (the rounding's half) joins the outer pair, whose weight is 1: no adder more in the last step
-    val pairs = pre.insert(Vec(bias.fold(outer)(outer + _.resize(width)) +: Seq((1, 5), (2, 4)).map { case (i, j) =>
+    // a bias (the rounding's half) joins the outer pair, whose weight is 1: no adder more in the last step; the
+    // three terms through a carry-save step into one adder
+    val outer = carrySaveSumSigned(Seq(values(0), values(6)) ++ bias.toSeq, width)
+    val pairs = pre.insert(Vec(outer +: Seq((1, 5), (2, 4)).map { case (i, j) =>
       values(i).resize(width) + values(j).resize(width)
     } :+
       values(3).resize(width)))
     val m = mid.getOrElse(sum)
     val Seq(a, b, c, d) = m(pairs).toSeq
-    val halves = m.insert(Vec(a + (b |<< 2) + (b |<< 1), ((c |<< 4) - c) + ((d |<< 4) + (d |<< 2))))
+    // a + 6b and 15c + 20d = 16c + ~c + 1 + 16d + 4d, each through carry-save steps into one adder
+    val halves = m.insert(Vec(
+      carrySaveSumSigned(Seq(a, b |<< 2, b |<< 1), width),
+      carrySaveSumSigned(Seq(c |<< 4, ~c, d |<< 4, d |<< 2), width, plusOne = true)
+    ))
     sum(halves)(0) + sum(halves)(1)
   }
 
@@ -236,9 +241,10 @@ class HarrisDetector(f: FrameConfig, h: HarrisConfig, columnRows: Int, stages: H
 
   val kTraceNode = at(stages.kTrace)
   val kTrace = new kTraceNode.Area {
-    // kNum * tr^2 by shifts and adds: kNum is a small constant.
-    val KTR2 =
-      insert(floorShift(constMul(multiply.TR2, h.kNum, h.kTrace2Width + h.kShift), h.kShift).resize(h.kTrace2Width))
+    // kNum * tr^2 by shifts and adds (kNum is a small constant), in one carry chain behind the multiplier
+    val KTR2 = insert(
+      floorShift(constMulCarrySave(multiply.TR2, h.kNum, h.kTrace2Width + h.kShift), h.kShift).resize(h.kTrace2Width)
+    )
     val DET = insert(multiply.XXYY.intoSInt.resize(h.detWidth) - multiply.XY2.intoSInt.resize(h.detWidth))
   }
 

@@ -245,13 +245,20 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
   val keyEnd = new Area {
     def busy: Bool = activity === Activity.KEY_END
     val group = Reg(UInt(groupWidth + 1 bits)) init 0
-    when(busy) { group := group + 1 }
-    when(busy && group === m.groups - 1) {
+
+    /** `group` is the store's last: a register beside the count, so the activity's next value waits for no compare */
+    val atLast = Reg(Bool()) init False
+    when(busy) {
+      group := group + 1
+      atLast := (if (m.groups >= 2) group === m.groups - 2 else True)
+    }
+    when(busy && atLast) {
       activity := Activity.IDLE
     }
     when(item.fire && item.end.now && frame.keyNow) {
       activity := Activity.KEY_END
       group := 0
+      atLast := Bool(m.groups == 1)
     }
   }
 

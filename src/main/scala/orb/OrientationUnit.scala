@@ -131,8 +131,10 @@ class OrientationUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, c
     val corner = CornerHw(f, h)
     val lastX, lastY = UInt(cw bits)
   }
-  // (its readiness through a register too: no decision on the head reaches the queue's RAM and pointers)
-  val buffered = queue.io.pop.s2mPipe(flush = sums.frameStart)
+  // The RAM's data into a plain register first (the RAM's output register: nothing else reads it), then a buffer
+  // (its readiness through a register too: no decision on the head reaches the queue's RAM and pointers).
+  val fromRam = queue.io.pop.m2sPipe(flush = sums.frameStart)
+  val buffered = fromRam.s2mPipe(flush = sums.frameStart)
   val popped = buffered.m2sPipe(flush = sums.frameStart)
   val head = popped.map { c =>
     val w = Waiting()
@@ -162,15 +164,14 @@ class OrientationUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, c
   // A new frame: what is still queued belongs to a frame that ended before its rows came.
   queue.io.flush := sums.frameStart
 
-  /** the most corners one clock can drop: the queue, its buffer and two head registers flushed, the one pushed then,
-    * one more */
-  val dropWidth = log2Up(d.cornerQueueDepth + 4 + 4 + 1)
+  /** the most corners one clock can drop: the queue, its output register, its buffer and two head registers
+    * flushed, the one pushed then, one more */
+  val dropWidth = log2Up(d.cornerQueueDepth + 5 + 4 + 1)
   // What a frame start flushes is registered first and counted in the clocks after (see `dropsNow`).
   val queueFlushed = RegNext(Mux(
     sums.frameStart,
-    queue.io.occupancy.resize(dropWidth) + U(io.corners.valid).resize(dropWidth) + U(!queue.io.pop.ready).resize(
-      dropWidth
-    ) +
+    queue.io.occupancy.resize(dropWidth) + U(io.corners.valid).resize(dropWidth) +
+      U(fromRam.valid).resize(dropWidth) + U(!fromRam.ready).resize(dropWidth) +
       U(popped.valid).resize(dropWidth) + U(head.valid).resize(dropWidth),
     U(0, dropWidth bits)
   )) init 0
