@@ -189,6 +189,7 @@ case class BudgetConfig(
   require(perCell >= 1 && perCell <= 16)
   require(levelFracBits >= 0 && levelFracBits <= 4)
   require(rankFracBits >= 0 && rankFracBits <= 8)
+  require(rankFracBits >= levelFracBits, "a winner's level is its rank's leading bits")
   require(defaultTarget >= 0 && defaultTarget <= BudgetConfig.targetMax)
   def cellShift: Int = log2Up(cellWidth)
   def bandShift: Int = log2Up(cellHeight)

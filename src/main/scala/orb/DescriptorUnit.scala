@@ -156,32 +156,57 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
     magnitudeWidth,
     DescriptorUnit.tableParts
   )
+
+  /** A ready corner with a copy of its bin's index within the quadrant per part of the cos/sin tables (kept apart):
+    * no one register drives every part's lookup. */
+  case class IndexedCorner() extends Bundle {
+    val item = ReadyCorner()
+    val within = Vec(UInt(quarterIndexWidth bits), DescriptorUnit.tableParts)
+  }
+  def indexed(r: ReadyCorner): IndexedCorner = {
+    val o = IndexedCorner()
+    o.item := r
+    o.within.foreach(_ := r.bin.resize(quarterIndexWidth))
+    o
+  }
   case class CosSinLookup() extends Bundle {
     val item = ReadyCorner()
     val quadrant = UInt(2 bits)
     val cosWords, sinWords = Vec(UInt(magnitudeWidth bits), DescriptorUnit.tableParts)
     val part = UInt(log2Up(DescriptorUnit.tableParts) bits)
   }
-  def lookupCosSin(r: ReadyCorner): CosSinLookup = {
+  def lookupCosSin(i: IndexedCorner): CosSinLookup = {
     val o = CosSinLookup()
-    val within = r.bin.resize(quarterIndexWidth)
-    o.item := r
-    o.quadrant := r.bin(d.binWidth - 1 downto d.binWidth - 2)
-    o.cosWords := cosTable.words(within)
-    o.sinWords := sinTable.words(within)
-    o.part := cosTable.part(within)
+    o.item := i.item
+    o.quadrant := i.item.bin(d.binWidth - 1 downto d.binWidth - 2)
+    o.cosWords := cosTable.wordsEach(i.within.toSeq)
+    o.sinWords := sinTable.wordsEach(i.within.toSeq)
+    o.part := cosTable.part(i.within.head)
+    o
+  }
+
+  /** the bin's magnitudes within its quadrant, picked from their parts */
+  case class CosSinPicked() extends Bundle {
+    val item = ReadyCorner()
+    val quadrant = UInt(2 bits)
+    val c, s = UInt(magnitudeWidth bits)
+  }
+  def pickCosSin(l: CosSinLookup): CosSinPicked = {
+    val o = CosSinPicked()
+    o.item := l.item
+    o.quadrant := l.quadrant
+    o.c := cosTable.pick(l.cosWords, l.part)
+    o.s := sinTable.pick(l.sinWords, l.part)
     o
   }
 
   /** quadrant 0: (c, s), 1: (-s, c), 2: (-c, -s), 3: (s, -c) */
-  def prepare(l: CosSinLookup): PreparedCorner = {
+  def prepare(l: CosSinPicked): PreparedCorner = {
     val o = PreparedCorner()
     val odd = l.quadrant.lsb
-    val c = cosTable.pick(l.cosWords, l.part)
-    val s = sinTable.pick(l.sinWords, l.part)
     o.item := l.item
-    o.rotation.cos := Mux(odd, s, c)
-    o.rotation.sin := Mux(odd, c, s)
+    o.rotation.cos := Mux(odd, l.s, l.c)
+    o.rotation.sin := Mux(odd, l.c, l.s)
     o.rotation.cosNegative := l.quadrant === 1 || l.quadrant === 2
     o.rotation.sinNegative := l.quadrant.msb
     o
@@ -197,10 +222,11 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
     * on them next, and the head starts a clock later unless it changed or a row starts in between. */
   val dispatch = new Area {
     // the queue's RAM through its output register, then a register beside the lookups (the RAM lies apart from
-    // them; its readiness from two registers: no decision reaches the read pointer), then the lookups, each step with its
-    // valid and ready registered (no chain of readies from the decision back to the queue): a step passes a corner
-    // every other clock, and corners are an engine's run apart
-    val head = ready.io.pop.m2sPipe().halfPipe().map(lookupCosSin).halfPipe().map(prepare).halfPipe()
+    // them; its readiness from two registers: no decision reaches the read pointer), then the lookups, the parts'
+    // pick and the quadrant's swap, each step with its valid and ready registered (no chain of readies from the
+    // decision back to the queue): a step passes a corner every other clock, and corners are an engine's run apart
+    val indexedHead = DescriptorUnit.halfPipeKeeping(ready.io.pop.m2sPipe().map(indexed))(_.within.toSeq)
+    val head = indexedHead.map(lookupCosSin).halfPipe().map(pickCosSin).halfPipe().map(prepare).halfPipe()
     val c = head.payload.item
     // rows since the patch was complete (negative: not yet), for the head of the clock before: it is the head's
     // now unless the head left then or a row started since (the rows and their history then moved on)
@@ -211,10 +237,9 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
     // the tests on the rows since, registered beside them: the start decision only combines registers
     val early = RegNext(difference.msb) init True
     val late = RegNext(difference.asUInt >= d.slackRows) init False
-    val dataOk = RegNext {
-      val row = ring.history(difference.asUInt.resize(log2Up(d.slackRows max 2)))
-      row.active && row.frame === c.frameTag
-    } init False
+    // each row's test against the head's frame side by side with the difference, then the one it names
+    val goodRows = Vec(ring.history.map(row => row.active && row.frame === c.frameTag))
+    val dataOk = RegNext(goodRows(difference.asUInt.resize(log2Up(d.slackRows max 2)))) init False
     val due = current && !early
     // the engine free for a corner, a clock late (never right after a start, which takes the slot)
     val free = Reg(Bool()) init False
@@ -355,6 +380,8 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
 
     /** Advances the front end: low while the issue stage repeats a group (registered: see `issue`). */
     val advance = RegInit(True)
+    // kept apart from its copies: it stays beside the issue stage's control, the copies beside what they enable
+    advance.addAttribute("preserve")
 
     /** copies of `advance` (kept apart), each enabling a share of the front end's registers: no one flag drives
       * them all */
@@ -363,13 +390,30 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
       a.addAttribute("preserve")
       a
     }
-    private val enabledBits = Array.fill(advanceCopies.size)(0)
+    private val enableRequests = scala.collection.mutable.ArrayBuffer[(Bool, Int)]()
 
-    /** the copy of `advance` that enables the fewest bits so far, for `bits` more */
+    /** an enable for `bits` more of the front end's registers: a copy of `advance` chosen once the front end is
+      * built (`shareEnables`) */
     private def enable(bits: Int): Bool = {
-      val copy = enabledBits.indexOf(enabledBits.min)
-      enabledBits(copy) += bits
-      advanceCopies(copy)
+      val e = Bool()
+      enableRequests += e -> bits
+      e
+    }
+
+    /** Each copy of `advance` enables registers made one after the other (a stage's, a table part's: registers
+      * that lie together), about an equal share of the bits each, so no copy's wires span the front end. */
+    def shareEnables(): Unit = {
+      val share = (enableRequests.map(_._2).sum + advanceCopies.size - 1) / advanceCopies.size
+      var copy = 0
+      var load = 0
+      for ((e, bits) <- enableRequests) {
+        if (load > 0 && load + bits > share && copy < advanceCopies.size - 1) {
+          copy += 1
+          load = 0
+        }
+        e := advanceCopies(copy)
+        load += bits
+      }
     }
     def step[T <: Data](v: T): T = RegNextWhen(v, enable(widthOf(v)))
 
@@ -399,7 +443,7 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
       val group = newCount()
       val valid = group < groups
       private def counting(g: UInt): UInt = {
-        when(advance && valid) {
+        when(enable(widthOf(g)) && valid) {
           g := g + 1
         }
         when(valid && abandons(tag)) {
@@ -473,12 +517,15 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
     // last step becomes their input registers)
     val rotation = new Area {
       val fetched = pick(fetch.tag)(_.rotation)
-      val value = step(step(step(fetched)))
+      val first = step(fetched)
+      // a copy per point (kept apart), each feeding only its point's four multipliers
+      val copies = (0 until pointsPerGroup).map { _ =>
+        val r = step(first)
+        r.addAttribute("preserve")
+        r
+      }
+      val values = copies.map(step(_))
     }
-    val cosM = rotation.value.cos
-    val sinM = rotation.value.sin
-    val cosNegative = rotation.value.cosNegative
-    val sinNegative = rotation.value.sinNegative
     val productWidth = patternWidth + magnitudeWidth
 
     /** |x cos|, |y sin|, |x sin|, |y cos|; x' = x cos - y sin = sx (|x cos| -+ |y sin|) and y' = x sin + y cos =
@@ -491,6 +538,10 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
       val token = stepToken(pattern.token)
       val p = (0 until pointsPerGroup).map { i =>
         val o = Products()
+        val cosM = rotation.values(i).cos
+        val sinM = rotation.values(i).sin
+        val cosNegative = rotation.values(i).cosNegative
+        val sinNegative = rotation.values(i).sinNegative
         o.xc := pattern.x(i) * cosM
         o.ys := pattern.y(i) * sinM
         o.xs := pattern.x(i) * sinM
@@ -541,10 +592,15 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
       o.negative := negative
       o
     }
-    val totals = new Area {
+    // the products once more in plain registers: the multipliers' own output registers lie apart from the adders
+    val near = new Area {
       val token = stepToken(products.token)
-      val x = products.p.map(p => step(total(addSub(p.xc, p.ys, p.xSubtract), p.xNegative)))
-      val y = products.p.map(p => step(total(addSub(p.xs, p.yc, p.ySubtract), p.yNegative)))
+      val p = products.p.map(step(_))
+    }
+    val totals = new Area {
+      val token = stepToken(near.token)
+      val x = near.p.map(p => step(total(addSub(p.xc, p.ys, p.xSubtract), p.xNegative)))
+      val y = near.p.map(p => step(total(addSub(p.xs, p.yc, p.ySubtract), p.yNegative)))
     }
     val sums = new Area {
       val token = stepToken(totals.token)
@@ -597,7 +653,7 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
         (0 until pointsPerGroup).map(i => step(rotated.rowOffset(i) === 0 || rotated.rowOffset(i) === 2 * sampleReach))
     }
     val planner = new GroupPlanner(bankWidth)
-    planner.io.advance := advance
+    planner.io.advance := enable(GroupPlanner.latency * widthOf(planner.io.plan))
     for (i <- 0 until pointsPerGroup) {
       planner.io.points(i).bank := bankOf(located.points(i).slot)
       planner.io.points(i).portB := located.portB(i)
@@ -654,12 +710,17 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
         advance := True
       }
       val now = (0 until pointsPerGroup).map(i => plan.issue(i) === clock)
-      val lanes = Vec((0 until 2 * lanesPerPort).map { l =>
-        val hits = (0 until pointsPerGroup).map(i => valid && now(i) && plan.lane(i) === l)
+      // which point each lane reads now, registered with the points (the lanes' choice comes from registers)
+      val hits = RegNext(Vec((0 until 2 * lanesPerPort).map { l =>
+        Vec((0 until pointsPerGroup).map(i => valid && now(i) && plan.lane(i) === l))
+      }))
+      hits.foreach(_.foreach(_.init(False)))
+      val hitPoints = RegNext(points)
+      val lanes = Vec(hits.map { laneHits =>
         val o = LaneRead()
-        o.valid := hits.orR
-        val slots = hits.zip(points).map { case (hit, p) => Mux(hit, p.slot, U(0, slotWidth bits)) }
-        val columns = hits.zip(points).map { case (hit, p) => Mux(hit, p.column, U(0, colWidth bits)) }
+        o.valid := laneHits.orR
+        val slots = laneHits.zip(hitPoints).map { case (hit, p) => Mux(hit, p.slot, U(0, slotWidth bits)) }
+        val columns = laneHits.zip(hitPoints).map { case (hit, p) => Mux(hit, p.column, U(0, colWidth bits)) }
         o.slot := slots.reduceBalancedTree(_ | _)
         o.column := columns.reduceBalancedTree(_ | _)
         o
@@ -704,7 +765,9 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
     val read = new Area {
       val lanes = RegNext(issue.lanes)
       lanes.foreach(_.valid.init(False))
-      val reads1 = delayed(issue.reads)
+      // the reads as the lanes leave the issue stage's registers
+      val reads0 = delayed(issue.reads)
+      val reads1 = delayed(reads0)
       // bank and column, once per lane
       val located = Vec(lanes.map { l =>
         val o = LaneAddress()
@@ -797,6 +860,7 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
         s.collected(results.asBits, enables)
       }
     }
+    shareEnables()
   }
 
   // The store: bank b holds ring slots 2b and 2b + 1 at (slot & 1) ## column (a single slot has no such bit).
@@ -898,18 +962,40 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
 
 object DescriptorUnit {
 
+  /** `in.halfPipe()` (a beat every other clock, the ready from the valid register) whose payload fields `kept` stay
+    * apart as registers (copies of one value that drive different logic) */
+  def halfPipeKeeping[T <: Data](in: Stream[T])(kept: T => Seq[Data]): Stream[T] = {
+    val out = Stream(cloneOf(in.payload))
+    val valid = RegInit(False)
+    val payload = Reg(cloneOf(in.payload))
+    kept(payload).foreach(_.addAttribute("preserve"))
+    when(in.valid) {
+      valid := True
+    }
+    when(out.fire) {
+      valid := False
+    }
+    when(!valid) {
+      payload := in.payload
+    }
+    in.ready := !valid
+    out.valid := valid
+    out.payload := payload
+    out
+  }
+
   /** Clocks from a corner's release (its row start), or from the engine becoming free for it, to the engine
     * starting it, at most: the rows since, the row test and the engine's freedom are registered, and a row start in
     * between costs two more. */
   val dispatchClocks: Int = 5
 
   /** Clocks from a corner's start to its first read issue when no earlier group is ahead of it in the front end:
-    * the fetch and the front end's 13 registered stages. */
-  val frontLatency: Int = 14
+    * the fetch and the front end's 14 registered stages. */
+  val frontLatency: Int = 15
 
   /** Clocks from a corner's last read issue to its finished descriptor: the reads, the comparison and the
     * collection. */
-  val backLatency: Int = 10
+  val backLatency: Int = 11
 
   /** Clocks from a corner's start to its finished descriptor beyond its read issues, with no earlier group ahead of
     * it in the front end. */

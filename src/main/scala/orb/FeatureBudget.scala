@@ -286,6 +286,12 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
     }
     val scores = cellScores.map(cs => RegNext(cs.reduce(_ | _)))
     out.score := Mux(bank === 1, scores(1), scores(0))
+    // and its rank, picked alike (the winner's level is the rank's leading bits: no second leading-one search)
+    val cellRanks = banks.zip(places).map { case (bk, bankPlaces) =>
+      bk.zip(bankPlaces).map { case (list, place) => RegNext(MuxOH.or(place: Bits, list.map(_.rank).toSeq)) }
+    }
+    val ranks = cellRanks.map(cs => RegNext(cs.reduce(_ | _)))
+    val outRank = Mux(bank === 1, ranks(1), ranks(0))
     when(busy) {
       pace := Mux(pace === FeatureBudget.winnerClocks - 1, U(0, pace.getWidth bits), pace + 1)
     }
@@ -334,9 +340,10 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
   val decide = new Area {
     val leading = emission.out.stage()
     val scored = leading.stage()
-    val lead = RegNext(leadOf(leading.score))
     val winner = scored.stage()
-    val level = RegNext(levelOf(scored.score, lead, b.levelFracBits, levelWidth))
+    // the level of `levelFracBits` (`BudgetModel.level`) is the rank of `rankFracBits` without its last bits
+    val level =
+      RegNext(Arith.floorShift(RegNext(RegNext(emission.outRank)), b.rankFracBits - b.levelFracBits)).resize(levelWidth)
     val target = io.target
     val room = RegNext(cut.taken < target) init False
     val roomAtCut = RegNext(cut.atCut < cut.remainder) init False
@@ -375,11 +382,10 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
     }
     // nothing in flight: no corner on its way into a list, no band being emitted, no winner's count unwritten
     // (a corner at the input is none of its frame's: it comes at least 22 rows into the next frame); decided a
-    // clock ahead into a register, from this clock's state and what enters in the next (a corner at the input, a
-    // band's trigger), so the frame end's clearing of every list hangs on one register
-    val quiet = RegNext(!intake.busy && !io.corners.valid && !emission.busy && !emission.trigger &&
-      !emission.trigger.getAheadValue() && !decide.inFlight) init False
-    val fire = pending && quiet
+    // clock ahead into a register from this clock's state, and what entered since (a corner in the intake's first
+    // register, a band's trigger) tested beside it: no path from another block or through the trigger's logic
+    val quiet = RegNext(!intake.busy && !emission.busy && !emission.trigger && !decide.inFlight) init False
+    val fire = pending && quiet && !intake.ranked.first.valid && !emission.trigger
     when(fire) { pending := False }
     // after reset the histogram RAM may hold a cut-off frame's counts: the walk empties it first
     val phase = RegInit(Phase.scan)

@@ -9,22 +9,23 @@ import Arith._
   * between. Steps of one node share a clock; the default registers the input column (it comes from the line
   * buffer's RAM, across the chip), puts a register after every adder tree and multiplier, and gives the gradients
   * two registers before the products (the second becomes the multiplier block's input register, the first stays
-  * beside the Sobel adders, so no adder drives the long wires to the multipliers). */
+  * beside the Sobel adders, so no adder drives the long wires to the multipliers) and the products two after them
+  * (the first is the multiplier block's output register, the second lies beside the adders that take them). */
 case class HarrisStages(
     sobel: Int = 1,
     sobelDiff: Int = 2,
     products: Int = 4,
-    columnPre: Int = 5,
-    columnMid: Int = 6,
-    columnSum: Int = 7,
-    rowPre: Int = 8,
-    rowMid: Int = 9,
-    rowSum: Int = 10,
-    trace: Int = 11,
-    multiply: Int = 12,
-    kTrace: Int = 13,
-    response: Int = 14,
-    suppressRead: Int = 15,
+    columnPre: Int = 6,
+    columnMid: Int = 7,
+    columnSum: Int = 8,
+    rowPre: Int = 9,
+    rowMid: Int = 10,
+    rowSum: Int = 11,
+    trace: Int = 12,
+    multiply: Int = 13,
+    kTrace: Int = 15,
+    response: Int = 16,
+    suppressRead: Int = 17,
     segmentCompare: Int = 1,
     segmentArc: Int = 2
 ) {
