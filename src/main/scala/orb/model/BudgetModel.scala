@@ -27,8 +27,9 @@ object BudgetModel {
       (e << fracBits) | (((score << fracBits) >> e) & ((1 << fracBits) - 1)).toInt
     }
 
-  /** A winner's level in the frame's histogram. */
-  def level(score: Long, cfg: BudgetConfig): Int = levelOf(score, cfg.levelFracBits)
+  /** A winner's level in the frame's histogram: its rank without the last `rankFracBits - levelFracBits` bits, which
+    * is `levelOf(score, levelFracBits)` (the hardware takes it so, from the rank the winner carries). */
+  def level(score: Long, cfg: BudgetConfig): Int = rank(score, cfg) >> (cfg.rankFracBits - cfg.levelFracBits)
 
   /** A corner's rank in its cell: its score's level at `rankFracBits`. */
   def rank(score: Long, cfg: BudgetConfig): Int = levelOf(score, cfg.rankFracBits)
