@@ -415,9 +415,13 @@ object MatcherConfig {
   /** clocks from a read's address to its data: the address register (each lane's own), the RAM, its output register */
   val readLatency: Int = 3
 
+  /** clocks from a read's address to its cross word: a plain register behind the RAM's output register (the
+    * comparisons, the rescan and the sweep that read it lie apart from the RAM) */
+  val crossLatency: Int = readLatency + 1
+
   /** clocks from the sweep's read of an entry to its correspondence's push into the output FIFO (the entry picked
     * from its lane into a register, then the push's register) */
-  val pushLatency: Int = readLatency + 2
+  val pushLatency: Int = crossLatency + 2
 
   /** Parts of a lane's copy of the live descriptor, each loaded by its own copy of the idle flag. */
   val liveDescriptorParts: Int = 8

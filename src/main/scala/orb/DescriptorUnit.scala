@@ -283,15 +283,38 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
     takesNext.addAttribute("preserve")
     leavesNext.addAttribute("preserve")
 
-    /** its patch's oldest row goes at the next row start: `rowsLeft === 1`, a register beside the count */
+    /** its patch's oldest row goes at the next row start (`rowsLeft === 1`), or at the one after (`=== 2`):
+      * registers beside the count */
     val onLastRow = RegNext(rowsLeft.getAheadValue() === 1) init False
+    val onSecondLastRow = RegNext(rowsLeft.getAheadValue() === 2) init False
 
-    /** a row start overwrites the oldest row before the descriptor is complete: decided a clock ahead (the row start
-      * is known then) into a register, so the front end's enables do not wait for the slot's state */
-    val abandon =
-      RegNext(ring.startsRow && state.getAheadValue() === EngineState.RUN && onLastRow.getAheadValue()) init False
+    /** the slot takes a corner in this clock, and the corner has one row left */
+    val begins, beginsOnLastRow = False
+
+    /** the slot's last group is collected in this clock (unless abandoned in it) */
+    val collectsLast = Bool()
+
+    /** A row start overwrites the oldest row before the descriptor is complete: decided a clock ahead (the row start
+      * is known then) into a register, so the front end's enables do not wait for the slot's state. Whether the
+      * slot runs on its last row in the next clock, from the transitions that can lead there: it takes a corner
+      * with one row left, or it runs on, not complete, into its last row. `abandonCopies` (kept apart) serve the
+      * front end's copies of `advance`. */
+    val abandon = Reg(Bool()) init False
+    val abandonNext = ring.startsRow && Mux(
+      begins,
+      beginsOnLastRow,
+      running && !abandon && !collectsLast && Mux(ring.rowStart, onSecondLastRow, onLastRow)
+    )
+    abandon := abandonNext
+    val abandonCopies = Seq.fill(DescriptorUnit.advanceCopies / DescriptorUnit.advanceCopiesPerAbandon) {
+      val a = RegNext(abandonNext) init False
+      a.addAttribute("preserve")
+      a
+    }
 
     def begin(c: PreparedCorner, b: UInt, left: UInt): Unit = {
+      begins := True
+      beginsOnLastRow := left === 1
       state := EngineState.RUN
       corner := c.item
       rotation := c.rotation
@@ -311,6 +334,7 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
           descriptor(p * partBits, partBits bits) := shifted(p * partBits, partBits bits)
         }
       }
+      collectsLast := enables.head && lastGroup
       when(enables.head) {
         done := done + 1
         lastGroup := done === groups - 2
@@ -384,12 +408,7 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
     advance.addAttribute("preserve")
 
     /** copies of `advance` (kept apart), each enabling a share of the front end's registers: no one flag drives
-      * them all */
-    val advanceCopies = Seq.fill(DescriptorUnit.advanceCopies) {
-      val a = RegNext(advance.getAheadValue()) init True
-      a.addAttribute("preserve")
-      a
-    }
+      * them all; made with the issue stage (`issue.advanceCopies`) */
     private val enableRequests = scala.collection.mutable.ArrayBuffer[(Bool, Int)]()
 
     /** an enable for `bits` more of the front end's registers: a copy of `advance` chosen once the front end is
@@ -403,6 +422,7 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
     /** Each copy of `advance` enables registers made one after the other (a stage's, a table part's: registers
       * that lie together), about an equal share of the bits each, so no copy's wires span the front end. */
     def shareEnables(): Unit = {
+      val advanceCopies = issue.advanceCopies
       val share = (enableRequests.map(_._2).sum + advanceCopies.size - 1) / advanceCopies.size
       var copy = 0
       var load = 0
@@ -699,7 +719,8 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
       val plan = step(planned.plan)
       val clock = Reg(UInt(GroupPlanner.issueWidth bits)) init 0
       // The front end advances in the clock after a group's last: registered, from the group that comes next.
-      advance := Mux(advance, !planned.token.valid || planned.single, (clock +^ 2) === plan.issues)
+      val continues = Mux(advance, !planned.token.valid || planned.single, (clock +^ 2) === plan.issues)
+      advance := continues
       when(advance) {
         clock := 0
       } otherwise {
@@ -708,6 +729,14 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
       when(abandons(loaded.tag)) {
         token.valid := False
         advance := True
+      }
+      // the copies of `advance`, a few at a time from their own copies of the slots' abandonment
+      val advanceCopies = (0 until DescriptorUnit.advanceCopies).map { i =>
+        val j = i / DescriptorUnit.advanceCopiesPerAbandon
+        val abandonsHere = Mux(loaded.tag, slots(1).abandonCopies(j), slots(0).abandonCopies(j))
+        val a = RegNext(abandonsHere || continues) init True
+        a.addAttribute("preserve")
+        a
       }
       val now = (0 until pointsPerGroup).map(i => plan.issue(i) === clock)
       // which point each lane reads now, registered with the points (the lanes' choice comes from registers)
@@ -951,12 +980,13 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
     io.features.payload := payload
   }
 
+  // Every cause registered, then their sum (the count a few clocks late): no counter waits for the queue's
+  // pointers, the dispatch's decision or the oldest slot's state.
+  val dropCauses = RegNext(Vec(queueDrop, dispatch.refuse && !dispatch.c.end.now, engineDrop))
+  dropCauses.foreach(_.init(False))
+  val dropsNow = RegNext(dropCauses.map(U(_, 2 bits)).reduce(_ + _)) init 0
   val drops = Reg(f.counter()) init 0
-  // the queue's refusal registered first (a clock late: no counter waits for the queue's pointers)
-  drops := drops + U(RegNext(queueDrop) init False).resize(f.counterWidth) + U(dispatch.refuse && !dispatch.c.end.now).resize(
-    f.counterWidth
-  ) +
-    U(engineDrop).resize(f.counterWidth)
+  drops := drops + dropsNow.resize(f.counterWidth)
   io.dropped := drops
 }
 
@@ -1011,6 +1041,9 @@ object DescriptorUnit {
 
   /** copies of the front end's `advance`, each enabling a share of its registers */
   val advanceCopies: Int = 16
+
+  /** copies of `advance` served by one copy of a slot's abandonment */
+  val advanceCopiesPerAbandon: Int = 4
 
   /** copies of a slot's "group collected" flag, each enabling a part of its descriptor */
   val collectCopies: Int = 4

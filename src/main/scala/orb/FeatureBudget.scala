@@ -206,8 +206,8 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
     val p = io.pixels
     val rowStart = p.valid && p.x === 0 && p.active
     val sinceEnd = p.y - b.emitRowOffset
-    val trigger =
-      RegNext(rowStart && p.y >= b.cellHeight + b.emitRowOffset && sinceEnd(b.bandShift - 1 downto 0) === 0) init False
+    val triggers = rowStart && p.y >= b.cellHeight + b.emitRowOffset && sinceEnd(b.bandShift - 1 downto 0) === 0
+    val trigger = RegNext(triggers) init False
 
     /** the band that ends `emitRowOffset` rows before the triggering row */
     val band = RegNext(sinceEnd(f.coordWidth - 1 downto b.bandShift) - 1)
@@ -384,8 +384,22 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
     // (a corner at the input is none of its frame's: it comes at least 22 rows into the next frame); decided a
     // clock ahead into a register from this clock's state, and what entered since (a corner in the intake's first
     // register, a band's trigger) tested beside it: no path from another block or through the trigger's logic
-    val quiet = RegNext(!intake.busy && !emission.busy && !emission.trigger && !decide.inFlight) init False
-    val fire = pending && quiet && !intake.ranked.first.valid && !emission.trigger
+    val quiets = !intake.busy && !emission.busy && !emission.trigger && !decide.inFlight
+
+    /** The frame end fires: its own copies (kept apart) of `pending`, of the quiet test and of what entered since,
+      * each copy beside what it drives (the walk's state, a share of the banks), so no one flag spans the block. */
+    class Firing extends Area {
+      val waiting = Reg(Bool()) init False
+      val quiet = RegNext(quiets) init False
+      val entering = RegNext(io.corners.valid) init False
+      val triggered = RegNext(emission.triggers) init False
+      for (r <- Seq(waiting, quiet, entering, triggered)) r.addAttribute("preserve")
+      val fire = waiting && quiet && !entering && !triggered
+      when(io.frameEnds.valid) { waiting := True }
+      when(fire) { waiting := False }
+    }
+    val firing = new Firing
+    val fire = firing.fire
     when(fire) { pending := False }
     // after reset the histogram RAM may hold a cut-off frame's counts: the walk empties it first
     val phase = RegInit(Phase.scan)
@@ -399,8 +413,14 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
     val bankCounts = RegNext(Vec(listCounts.map(_.map(_.resize(f.counterWidth)).reduceBalancedTree(_ + _))))
     val fired = Delay(fire, 2, init = False)
     val dropped = RegNext(fired ? bankCounts.reduceBalancedTree(_ + _) | U(0, f.counterWidth bits)) init 0
+    // the banks emptied by their own copies of the firing, one per `FeatureBudget.cellsPerFiring` cells of a bank
+    for (bank <- banks; cells <- bank.grouped(FeatureBudget.cellsPerFiring)) {
+      val copy = new Firing
+      when(copy.fire) {
+        for (cell <- cells; e <- cell) e.valid := False
+      }
+    }
     when(fire) {
-      for (bank <- banks; cell <- bank; e <- cell) e.valid := False
       phase := Phase.scan
       good := pendingOk
       issue := levels - 1
@@ -491,4 +511,7 @@ object FeatureBudget {
   /** Clocks between two winners leaving a bank: the registered steps that choose one, and the histogram's read, its
     * registered data, the write back. */
   val winnerClocks: Int = 8
+
+  /** cells of a bank emptied by one copy of the frame end's firing */
+  val cellsPerFiring: Int = 8
 }

@@ -64,199 +64,210 @@ class FrameTracker(c: FrameConfig) extends Component {
   val b = input.payload
   val fire = input.valid
 
-  /** a start of frame, decoded into its own register on the way in: it decides most of the state */
+  /** A start of frame, decoded into registers on the way in, two copies kept apart: `starts` loads the frame's
+    * fields, `opens` picks between the two cases below for every beat field. */
   val starts = RegNext(io.pixels.valid && io.pixels.sof) init False
+  val opens = RegNext(io.pixels.valid && io.pixels.sof) init False
+  opens.addAttribute("preserve")
 
-  // Closing the previous frame on a start of frame. Whether it would close well is kept in a register, from the
-  // state's next values: the decision fans out to every field on a start of frame, and starts from a flip-flop.
+  /** The frame so far is good and would lock the geometry if a start of frame came now: in a frame, no fault, at
+    * the start of a line after at least one line, and completed if processed. Kept in registers from the state's
+    * next values in both cases below, so a start of frame decides from flip-flops; `learnt` loads the frame's
+    * fields, `learntBeat` (a copy kept apart) the beat's. Before the first start of frame nothing is locked, so
+    * at a start `learnt` is also the new frame's `locked`. */
+  val learnt, learntBeat = Reg(Bool()) init False
+  learntBeat.addAttribute("preserve")
+
+  /** A start of frame closes the frame before it (the same decisions in both copies' terms). */
   val close = new Area {
-    val good = RegNext(!bad.getAheadValue() && known.xZero.getAheadValue() && !known.yZero.getAheadValue() &&
-      (!processed.getAheadValue() || done.getAheadValue())) init False
-    val fault = starts && inFrame && !good
+    val fault = inFrame && !learntBeat
     val endsFrame = fault && !bad && processed && !done
     val countLine = fault && !known.xZero && !lineFaulted
     val countFrame = fault && !bad
   }
 
-  // The frame state this pixel is checked against (after a start of frame, the new frame's).
-  val cur = new Area {
-    // a copy of `starts` (kept apart) for this beat's checks and the next state's comparisons: `starts` itself
-    // loads the frame's fields
-    val start = RegNext(io.pixels.valid && io.pixels.sof) init False
-    start.addAttribute("preserve")
-
-    /** the frame before was good: its geometry becomes the expected one */
-    val learnt = inFrame && close.good
-    val nowLocked = Mux(start && inFrame, close.good, locked)
-    val nowExpW = Mux(start && learnt, lineW, expW)
-    val nowExpH = Mux(start && learnt, y, expH)
-    val inFrameNow = inFrame || start
-    val processedNow = Mux(start, nowLocked, processed)
-    val activeNow = Mux(start, nowLocked, active)
-    val badNow = !start && bad
-    val doneNow = !start && done
-    val widthKnownNow = Mux(start, nowLocked, widthKnown)
-    val lineWNow = Mux(start, nowExpW, lineW)
-    val lineFaultedNow = !start && lineFaulted
-    val keyNow = Mux(start, b.keyframe, key)
-    val xNow = Mux(start, U(0, cw bits), x)
-    val yNow = Mux(start, U(0, cw bits), y)
-    // xNow + 1 and yNow + 1, the adders on the registers beside the start's choice (not behind it)
-    val xNowPlusOne = Mux(start, U(1, cw bits), x + 1)
-    val yNowPlusOne = Mux(start, U(1, cw bits), y + 1)
-    // the comparisons for this beat: after a start of frame x = y = 0 against the new frame's limits
-    val expW0 = Mux(learnt, known.lineW0, known.expW0)
-    val expW1 = Mux(learnt, known.lineW1, known.expW1)
-    val expW2 = Mux(learnt, known.lineW2, known.expW2)
-    val expH0 = Mux(learnt, known.yZero, known.expH0)
-    val expH1 = Mux(learnt, known.yOne, known.expH1)
-    val expH2 = Mux(learnt, known.yTwo, known.expH2)
-    val expWm1 = Mux(learnt, known.lineWm1, known.expWm1)
-    val expHm1 = Mux(learnt, y - 1, known.expHm1)
-    val wOver = Mux(start, nowLocked && expW0, known.wOver)
-    val wLast = Mux(start, nowLocked && expW1, known.wLast)
-    val hOver = Mux(start, nowLocked && expH0, known.hOver)
-    val hLast = Mux(start, nowLocked && expH1, known.hLast)
-    val xZero = start || known.xZero
-    val xMax = !start && known.xMax
-    val yZero = start || known.yZero
-    val yOne = !start && known.yOne
-    val yTwo = !start && known.yTwo
-    val yMax = !start && known.yMax
-    val lineW0 = Mux(start, expW0, known.lineW0)
-    val lineW1 = Mux(start, expW1, known.lineW1)
-    val lineW2 = Mux(start, expW2, known.lineW2)
-    val lineWm1 = Mux(start, expWm1, known.lineWm1)
+  /** The first beat of a frame, at x = y = 0, checked against the geometry it locks (`learnt`) or against the
+    * limits while measuring: every value from a register or two, without the running case's logic. */
+  val opening = new Area {
+    val l = learntBeat
+    val lineFault = l && (known.lineW0 || (b.eol && !known.lineW1))
+    val fault = l && (known.lineW0 || known.yZero || (b.eol && !known.lineW1))
+    val complete = l && b.eol && known.yOne && known.lineW1
+    val endsFrame = close.endsFrame || fault || complete
+    val learntAfter = b.eol && (!l || (known.lineW1 && known.yOne))
   }
 
-  // Checks on this pixel.
-  val check = new Area {
-    import cur._
-    val lineFault = wOver || (widthKnownNow && b.eol && !wLast)
-    val fault = lineFault || hOver
-    val first = fault && !badNow
-    val endsFrame = first && processedNow && !doneNow
-    val complete = processedNow && !badNow && !fault && b.eol && hLast
+  /** A beat inside a frame: the comparisons come from the `known` registers beside the state. */
+  val running = new Area {
+    val lineFault = known.wOver || (widthKnown && b.eol && !known.wLast)
+    val fault = lineFault || known.hOver
+    val first = fault && !bad
+    val endsFrame = first && processed && !done
+    val complete = processed && !bad && !fault && b.eol && known.hLast
+
+    /** the line's width is kept (known, or not learnt from a faulty line); else it is learnt as x + 1 */
+    val keep = widthKnown || lineFaulted || known.wOver
+    val knownAfter = widthKnown || !keep
+    val xPlusOne = x + 1
+    val learntAfter = !(bad || fault) && (b.eol || (known.xMax && known.xZero && !known.yZero)) &&
+      (!processed || done || complete)
   }
 
-  // The comparisons of the state after this beat.
-  val next = new Area {
-    import cur._
-
-    /** x - limitW, y - limitH now (after a start of frame: the new limits, x = y = 0) */
-    val remW = Mux(start, Mux(nowLocked, nowExpW, U(c.maxWidth, cw bits)).resize(remWidth).asSInt, known.remW)
-    val remH = Mux(start, Mux(nowLocked, nowExpH, U(c.maxHeight, cw bits)).resize(remWidth).asSInt, known.remH)
-
-    /** remW <= 1, remW == 2 (likewise remH): where the next pixel stands */
-    val wNear = Mux(start, nowLocked && (expW0 || expW1), known.remW <= 1)
-    val wNext = Mux(start, nowLocked && expW2, known.remW === 2)
-    val hNear = Mux(start, nowLocked && (expH0 || expH1), known.remH <= 1)
-    val hNext = Mux(start, nowLocked && expH2, known.remH === 2)
-    val remWm1 = Mux(start, Mux(nowLocked, expWm1, U(c.maxWidth - 1, cw bits)).resize(remWidth).asSInt, known.remW - 1)
-    val remHm1 = Mux(start, Mux(nowLocked, expHm1, U(c.maxHeight - 1, cw bits)).resize(remWidth).asSInt, known.remH - 1)
-    val xIsMaxM1 = !start && x === c.maxWidth - 1
-    val yIsMaxM1 = !start && y === c.maxHeight - 1
-    val xIsOne = !start && x === 1
-
-    /** the line's width is kept (known, or not learnt from a faulty line) */
-    val keep = widthKnownNow || lineFaultedNow || check.lineFault
-  }
-
-  when(fire) {
-    when(starts) {
-      inFrame := True
-      locked := cur.nowLocked
-      expW := cur.nowExpW
-      expH := cur.nowExpH
-      known.expW0 := cur.expW0
-      known.expW1 := cur.expW1
-      known.expW2 := cur.expW2
-      known.expWm1 := cur.expWm1
-      known.expH0 := cur.expH0
-      known.expH1 := cur.expH1
-      known.expH2 := cur.expH2
-      known.expHm1 := cur.expHm1
-      key := b.keyframe
-      frames := frames + 1
+  when(fire && starts) {
+    inFrame := True
+    locked := learnt
+    key := b.keyframe
+    frames := frames + 1
+    when(learnt) {
+      expW := lineW
+      expH := y
+      known.expW0 := known.lineW0
+      known.expW1 := known.lineW1
+      known.expW2 := known.lineW2
+      known.expWm1 := known.lineWm1
+      known.expH0 := known.yZero
+      known.expH1 := known.yOne
+      known.expH2 := known.yTwo
+      known.expHm1 := y - 1
     }
-    when(cur.inFrameNow) {
-      processed := cur.processedNow
-      active := cur.activeNow && !check.fault && !check.complete
-      bad := cur.badNow || check.fault
-      done := cur.doneNow || check.complete
-      when(b.eol) {
-        // the next line: x = 0 against the (possibly learnt) width; y one more (saturating at maxHeight)
-        val learns = !next.keep
-        widthKnown := cur.widthKnownNow || learns
-        lineW := Mux(next.keep, cur.lineWNow, cur.xNowPlusOne)
-        known.lineW0 := next.keep && cur.lineW0
-        known.lineW1 := Mux(next.keep, cur.lineW1, cur.xZero)
-        known.lineW2 := Mux(next.keep, cur.lineW2, next.xIsOne)
-        known.lineWm1 := Mux(next.keep, cur.lineWm1, cur.xNow)
-        val knownAfter = cur.widthKnownNow || learns
-        known.remW := Mux(knownAfter, Mux(next.keep, cur.lineWNow, cur.xNowPlusOne), U(c.maxWidth, cw bits)).resize(
-          remWidth
-        ).asSInt
-        known.wOver := knownAfter && next.keep && cur.lineW0
-        known.wLast := knownAfter && Mux(next.keep, cur.lineW1, cur.xZero)
-        x := 0
-        known.xZero := True
-        known.xMax := False
-        y := Mux(cur.yMax, cur.yNow, cur.yNowPlusOne)
-        known.remH := Mux(cur.yMax, next.remH, next.remHm1)
-        known.hOver := Mux(cur.yMax, cur.hOver, next.hNear)
-        known.hLast := Mux(cur.yMax, cur.hLast, next.hNext)
-        known.yZero := False
-        known.yOne := cur.yZero && !cur.yMax
-        known.yTwo := cur.yOne
-        known.yMax := cur.yMax || next.yIsMaxM1
-        lineFaulted := False
-      } otherwise {
-        // the next pixel of the line: x one more (saturating at maxWidth)
-        widthKnown := cur.widthKnownNow
-        lineW := cur.lineWNow
-        known.lineW0 := cur.lineW0
-        known.lineW1 := cur.lineW1
-        known.lineW2 := cur.lineW2
-        known.lineWm1 := cur.lineWm1
-        x := Mux(cur.xMax, cur.xNow, cur.xNowPlusOne)
-        known.remW := Mux(cur.xMax, next.remW, next.remWm1)
-        known.wOver := Mux(cur.xMax, cur.wOver, next.wNear)
-        known.wLast := Mux(cur.xMax, cur.wLast, next.wNext)
-        known.xZero := cur.xMax && cur.xZero
-        known.xMax := cur.xMax || next.xIsMaxM1
-        y := cur.yNow
-        known.remH := next.remH
-        known.hOver := cur.hOver
-        known.hLast := cur.hLast
-        known.yZero := cur.yZero
-        known.yOne := cur.yOne
-        known.yTwo := cur.yTwo
-        known.yMax := cur.yMax
-        lineFaulted := cur.lineFaultedNow || check.lineFault
+  }
+
+  when(fire && opens) {
+    val l = opening.l
+    processed := l
+    active := l && !opening.fault && !opening.complete
+    bad := opening.fault
+    done := opening.complete
+    learntBeat := opening.learntAfter
+    known.yMax := False
+    known.xMax := False
+    when(b.eol) {
+      // the next line, y = 1: the width is the locked one, or learnt as 1
+      widthKnown := True
+      lineW := Mux(l, lineW, U(1, cw bits))
+      known.lineW0 := l && known.lineW0
+      known.lineW1 := !l || known.lineW1
+      known.lineW2 := l && known.lineW2
+      known.lineWm1 := Mux(l, known.lineWm1, U(0, cw bits))
+      known.remW := Mux(l, lineW, U(1, cw bits)).resize(remWidth).asSInt
+      known.wOver := l && known.lineW0
+      known.wLast := !l || known.lineW1
+      x := 0
+      known.xZero := True
+      y := 1
+      known.remH := Mux(l, y - 1, U(c.maxHeight - 1, cw bits)).resize(remWidth).asSInt
+      known.hOver := l && (known.yZero || known.yOne)
+      known.hLast := l && known.yTwo
+      known.yZero := False
+      known.yOne := True
+      known.yTwo := False
+      lineFaulted := False
+    } otherwise {
+      // x = 1 on the first line, against the locked width or the limits
+      widthKnown := l
+      when(!l) {
+        lineW := expW
+        known.lineW0 := known.expW0
+        known.lineW1 := known.expW1
+        known.lineW2 := known.expW2
+        known.lineWm1 := known.expWm1
       }
+      known.remW := Mux(l, known.lineWm1, U(c.maxWidth - 1, cw bits)).resize(remWidth).asSInt
+      known.wOver := l && (known.lineW0 || known.lineW1)
+      known.wLast := l && known.lineW2
+      x := 1
+      known.xZero := False
+      y := 0
+      known.remH := Mux(l, y, U(c.maxHeight, cw bits)).resize(remWidth).asSInt
+      known.hOver := l && known.yZero
+      known.hLast := l && known.yOne
+      known.yZero := True
+      known.yOne := False
+      known.yTwo := False
+      lineFaulted := opening.lineFault
     }
   }
+
+  when(fire && !opens && inFrame) {
+    active := active && !running.fault && !running.complete
+    bad := bad || running.fault
+    done := done || running.complete
+    learntBeat := running.learntAfter
+    when(b.eol) {
+      // the next line: x = 0 against the (possibly learnt) width; y one more (saturating at maxHeight)
+      val keep = running.keep
+      widthKnown := running.knownAfter
+      when(!keep) {
+        lineW := running.xPlusOne
+        known.lineW0 := False
+        known.lineW1 := known.xZero
+        known.lineW2 := x === 1
+        known.lineWm1 := x
+      }
+      known.remW := Mux(running.knownAfter, Mux(keep, lineW, running.xPlusOne), U(c.maxWidth, cw bits))
+        .resize(remWidth)
+        .asSInt
+      known.wOver := running.knownAfter && keep && known.lineW0
+      known.wLast := running.knownAfter && Mux(keep, known.lineW1, known.xZero)
+      x := 0
+      known.xZero := True
+      known.xMax := False
+      when(!known.yMax) {
+        y := y + 1
+        known.remH := known.remH - 1
+        known.hOver := known.remH <= 1
+        known.hLast := known.remH === 2
+        known.yOne := known.yZero
+        known.yMax := y === c.maxHeight - 1
+      } otherwise {
+        known.yOne := False
+      }
+      known.yZero := False
+      known.yTwo := known.yOne
+      lineFaulted := False
+    } otherwise {
+      // the next pixel of the line: x one more (saturating at maxWidth)
+      when(!known.xMax) {
+        x := running.xPlusOne
+        known.remW := known.remW - 1
+        known.wOver := known.remW <= 1
+        known.wLast := known.remW === 2
+        known.xZero := False
+        known.xMax := x === c.maxWidth - 1
+      }
+      lineFaulted := lineFaulted || running.lineFault
+    }
+  }
+  // `learnt` follows `learntBeat` (the same next value, a separate register for the frame's fields)
+  learnt := learntBeat.getAheadValue()
+
   // The fault counters count a clock late: their increments are registered, so no adder waits for the checks.
-  val lineFaults = RegNext(U(fire && close.countLine, 2 bits) + U(
-    fire && cur.inFrameNow && check.lineFault && !cur.lineFaultedNow,
-    2 bits
-  )) init 0
-  val frameFaults =
-    RegNext(U(fire && close.countFrame, 2 bits) + U(fire && cur.inFrameNow && check.first, 2 bits)) init 0
+  val lineFaults = RegNext(
+    Mux(
+      opens,
+      U(close.countLine, 2 bits) + U(opening.lineFault, 2 bits),
+      U(inFrame && running.lineFault && !lineFaulted, 2 bits)
+    ).andMask(fire)
+  ) init 0
+  val frameFaults = RegNext(
+    Mux(opens, U(close.countFrame, 2 bits) + U(opening.fault, 2 bits), U(inFrame && running.first, 2 bits))
+      .andMask(fire)
+  ) init 0
   badLines := badLines + lineFaults.resize(c.counterWidth)
   badFrames := badFrames + frameFaults.resize(c.counterWidth)
 
-  io.tracked.valid := RegNext(fire && cur.inFrameNow) init False
+  io.tracked.valid := RegNext(fire && (opens || inFrame)) init False
   val t = io.tracked.payload
   t.luma := RegNext(b.luma)
-  t.x := RegNext(cur.xNow)
-  t.y := RegNext(cur.yNow)
-  t.active := RegNext(cur.activeNow && !check.fault) init False
-  t.keyframe := RegNext(cur.keyNow)
-  t.end.now := RegNext(fire && (close.endsFrame || (cur.inFrameNow && (check.endsFrame || check.complete)))) init False
-  t.end.info.ok := RegNext(check.complete && !close.endsFrame)
-  t.end.info.keyframe := RegNext(Mux(close.endsFrame, key, cur.keyNow))
+  t.x := RegNext(Mux(opens, U(0, cw bits), x))
+  t.y := RegNext(Mux(opens, U(0, cw bits), y))
+  t.active := RegNext(Mux(opens, opening.l && !opening.fault, active && !running.fault)) init False
+  t.keyframe := RegNext(Mux(opens, b.keyframe, key))
+  t.end.now := RegNext(
+    fire && Mux(opens, opening.endsFrame, inFrame && (running.endsFrame || running.complete))
+  ) init False
+  t.end.info.ok := RegNext(Mux(opens, opening.complete && !close.endsFrame, running.complete))
+  t.end.info.keyframe := RegNext(Mux(opens && !close.endsFrame, b.keyframe, key))
   io.geometry.width := expW
   io.geometry.height := expH
   io.counters.frames := frames

@@ -22,10 +22,10 @@ case class HarrisStages(
     rowMid: Int = 10,
     rowSum: Int = 11,
     trace: Int = 12,
-    multiply: Int = 13,
-    kTrace: Int = 15,
-    response: Int = 16,
-    suppressRead: Int = 17,
+    multiply: Int = 14,
+    kTrace: Int = 16,
+    response: Int = 17,
+    suppressRead: Int = 18,
     segmentCompare: Int = 1,
     segmentArc: Int = 2
 ) {
@@ -232,7 +232,8 @@ class HarrisDetector(f: FrameConfig, h: HarrisConfig, columnRows: Int, stages: H
     val TRACE = insert((row.SXX +^ row.SYY).resize(h.traceWidth))
   }
 
-  // det and trace^2: three multipliers of at most 18x18 bits with the default shifts.
+  // det and trace^2: three multipliers of at most 18x18 bits with the default shifts, a node after the trace at the
+  // earliest (`multiply` > `trace` + 1 puts a plain register before the multiplier's own input register).
   val multiplyNode = at(stages.multiply)
   val multiply = new multiplyNode.Area {
     val XXYY = insert(row.SXX * row.SYY)

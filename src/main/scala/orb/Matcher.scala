@@ -28,7 +28,7 @@ import spinal.lib._
   * waiting and drops, and counts, what does not fit until the consumer takes one again: the feature stream keeps
   * flowing, so later frames are still matched. */
 class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: MatcherConfig) extends Component {
-  import MatcherConfig.{distanceWidth, none, pushLatency, readLatency}
+  import MatcherConfig.{crossLatency, distanceWidth, none, pushLatency, readLatency}
   val io = new Bundle {
     val features = slave Stream (FeatureHw(f, h, d))
     val params = in(MatchParamsHw(m))
@@ -123,7 +123,12 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
   // capacity, kept or not, costs one: counted as overflow.
   val load = new Area {
     val keyFeature = item.fire && frame.keyNow && !item.end.now
-    val room = storedNow < m.storeCapacity
+    // the store's count tested in registers a clock late: it changes only as a keyframe feature is taken, and items
+    // are at least two clocks apart (`halfPipe`), so the next one meets the tests of the count it left
+    val emptied = frame.first && isKey
+    val full = RegNext(stored === m.storeCapacity) init False
+    val room = emptied || !full
+    val storedZero = emptied || groupsCompared.zero
     val replace = !room && item.score > weakest.score
     val write = keyFeature && (room || replace)
     val index = Mux(room, storedNow, weakest.index)
@@ -134,7 +139,7 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
     when(item.fire && frame.first && isKey) { stored := 0 }
     when(keyFeature && room) {
       stored := storedNow + 1
-      when(storedNow === 0 || item.score < weakest.score) { weakest.score := item.score; weakest.index := storedNow }
+      when(storedZero || item.score < weakest.score) { weakest.score := item.score; weakest.index := storedNow }
     }
   }
 
@@ -234,7 +239,7 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
     val addr = groupOf(entry, groupWidth)
 
     /** reads whose clear has not been written yet: the next feature's scan must not read their words before */
-    val drains = (1 to readLatency + 1).map(k => Delay(reading, k, init = False))
+    val drains = (1 to crossLatency + 1).map(k => Delay(reading, k, init = False))
     val draining = drains.reduce(_ || _)
 
     /** `draining` in the next clock */
@@ -265,10 +270,12 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
   val popStages = MatcherConfig.popcountStages(m)
 
   // The read side of every lane: store and cross state, by the scan, the sweep or the rescan, every clock (a read
-  // nobody asked for is ignored), through a lane's own address registers and the RAMs' output registers: the data
-  // come `readLatency` clocks after the address is chosen. The scan reads a group's cross state `popStages` clocks
-  // after its entries, so that it meets their distance (the address waits, not the data).
-  val scanCrossAddr = Delay(scan.readAddr, popStages)
+  // nobody asked for is ignored), through a lane's own address registers and the RAMs' output registers: the entries
+  // come `readLatency` clocks after the address is chosen, the cross words (a plain register more) `crossLatency`.
+  // The scan reads a group's cross state later than its entries, so that it meets their distance (the address
+  // waits, not the data).
+  require(popStages >= crossLatency - readLatency, "the cross word's address waits for the entry's distance")
+  val scanCrossAddr = Delay(scan.readAddr, popStages - (crossLatency - readLatency))
   val reads =
     for ((lane, l) <- lanes.zipWithIndex) yield new Area {
       // each lane's own copies (kept apart: one register would drive every RAM of the store)
@@ -280,7 +287,11 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
       val addr = address(scan.readAddr)
       val crossAddr = address(scanCrossAddr)
       val entry = RegNext(lane.store.readSync(addr))
-      val cross = RegNext(lane.cross.readSync(crossAddr))
+      val cross = RegNext(RegNext(lane.cross.readSync(crossAddr)))
+
+      /** the entry's position beside its cross word, for the sweep */
+      val keyX = RegNext(entry.x)
+      val keyY = RegNext(entry.y)
     }
 
   // The rescan's data path: the scores read through the cross port, the lowest (first on ties) of them all.
@@ -288,9 +299,9 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
     // Registered at every step: the RAM data (its output register, then a register beside the comparisons: the
     // RAMs are far apart), each level of the group's lowest, the running lowest; no path holds two of them.
     val scores = reads.map(r => RegNext(r.cross.asBits.resize(h.scoreWidth).asUInt))
-    val read = Delay(rescan.issuing, readLatency + 1, init = False)
-    val base = Delay(rescan.group.resize(countWidth) |<< log2Up(P), readLatency + 1)
-    val first = Delay(rescan.issuing && rescan.group === 0, readLatency + 1, init = False)
+    val read = Delay(rescan.issuing, crossLatency + 1, init = False)
+    val base = Delay(rescan.group.resize(countWidth) |<< log2Up(P), crossLatency + 1)
+    val first = Delay(rescan.issuing && rescan.group === 0, crossLatency + 1, init = False)
     // the group's lowest score, the first lane on ties, a register after every level of comparisons
     def lower(a: (UInt, UInt), b: (UInt, UInt)): (UInt, UInt) = {
       val takeB = b._1 < a._1
@@ -450,13 +461,14 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
     markValue.liveY := scan.live.y
   }
 
-  // Sweep results, `readLatency` clocks after the read.
+  // Sweep results, `crossLatency` clocks after the read.
   val swept = new Area {
-    val valid = Delay(sweep.reading, readLatency, init = False)
-    val lane = Delay(sweep.lane, readLatency)
-    val addr = Delay(sweep.addr, readLatency)
+    val valid = Delay(sweep.reading, crossLatency, init = False)
+    val lane = Delay(sweep.lane, crossLatency)
+    val addr = Delay(sweep.addr, crossLatency)
     val cross = pick(reads.map(_.cross), lane)
-    val entry = pick(reads.map(_.entry), lane)
+    val entryX = pick(reads.map(_.keyX), lane)
+    val entryY = pick(reads.map(_.keyY), lane)
     val emit = valid && cross.mutual && frame.params.crossCheck
     // the correspondence of an emitted entry, picked from its lane into registers (the lanes lie apart)
     private val emitNow = emit
@@ -464,8 +476,8 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
       val emit = RegNext(emitNow) init False
       val liveX = RegNext(cross.liveX)
       val liveY = RegNext(cross.liveY)
-      val keyX = RegNext(entry.x)
-      val keyY = RegNext(entry.y)
+      val keyX = RegNext(entryX)
+      val keyY = RegNext(entryY)
       val distance = RegNext(cross.distance)
     }
   }
@@ -486,7 +498,7 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
     val c = compare.results(l)
     val markHere = decide.markLanes(l)
     // the lane a clear is for, decided with the read and delayed beside it (no lane comparison on the way)
-    val clearHere = Delay(sweep.reading && here(sweep.lane), readLatency, init = False)
+    val clearHere = Delay(sweep.reading && here(sweep.lane), crossLatency, init = False)
     val address = Mux(
       scoreHere,
       scoreAddr,
@@ -505,8 +517,10 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
   // Ready for the next item when nothing is busy: a register, computed from the next values of the flags it depends
   // on (the FIFO's room from its register: see `paced`), so no decision hangs on the handshake or the FIFO's
   // pointers and nothing waits for the readiness's own logic.
+  // A keyframe feature that meets a full store holds the next item a clock, whether it replaces (the rescan starts
+  // then) or not: no score comparison in the readiness's logic.
   val readyNext =
-    activity.getAheadValue() === Activity.IDLE && !sweep.drainingNext && !rescan.starting.getAheadValue() &&
+    activity.getAheadValue() === Activity.IDLE && !sweep.drainingNext && !(load.keyFeature && !load.room) &&
       (paced.roomForItem || paced.giveUp.getAheadValue())
   item.ready := RegNext(readyNext) init True
 
