@@ -302,20 +302,17 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
     val read = Delay(rescan.issuing, crossLatency + 1, init = False)
     val base = Delay(rescan.group.resize(countWidth) |<< log2Up(P), crossLatency + 1)
     val first = Delay(rescan.issuing && rescan.group === 0, crossLatency + 1, init = False)
-    // the group's lowest score, the first lane on ties, a register after every level of comparisons
-    def lower(a: (UInt, UInt), b: (UInt, UInt)): (UInt, UInt) = {
-      val takeB = b._1 < a._1
-      (Mux(takeB, b._1, a._1), Mux(takeB, b._2, a._2))
-    }
-    var level: Seq[(UInt, UInt)] = scores.zipWithIndex.map { case (v, l) => (v, U(l, countWidth bits)) }
-    val levels = log2Up(P) max 1
-    for (_ <- 0 until levels) {
-      level = level.grouped(2).map(g => if (g.size == 1) g.head else lower(g(0), g(1))).map { case (v, l) =>
-        (RegNext(v), RegNext(l))
-      }.toSeq
-    }
-    val low = level.head._1
-    val index = Delay(base, levels) | level.head._2
+    // the group's lowest score, the first lane on ties, in two registered steps: every pair of lanes compared side
+    // by side, then the lane below every lane before it and not above any after it picked (no comparison waits
+    // for a choice, no choice for a comparison)
+    val values = scores.map(RegNext(_))
+    val below = (0 until P).map(i => (0 until P).map(j => if (i == j) False else RegNext(scores(i) < scores(j))))
+    val picks = Vec((0 until P).map { i =>
+      ((0 until i).map(j => below(i)(j)) ++ (i + 1 until P).map(j => !below(j)(i))).foldLeft(True)(_ && _)
+    })
+    val low = RegNext(MuxOH.or(picks, values))
+    val levels = 2
+    val index = Delay(base, levels) | RegNext(OHToUInt(picks)).resize(countWidth)
     val valid = Delay(read, levels, init = False)
     val firstD = Delay(first, levels, init = False)
     val accScore = Reg(UInt(h.scoreWidth bits)); val accIndex = Reg(UInt(countWidth bits))
