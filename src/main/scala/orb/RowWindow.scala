@@ -24,8 +24,8 @@ case class RowWindowConfig(rows: Int, maxWidth: Int, dataWidth: Int, rowsPerRam:
   * on top and the oldest dropped, is written back from there, two clocks after the read. Pixels two clocks apart
   * have different x unless a line is one or two pixels long, and such a frame is either faulty or too narrow for
   * any corner, so its output is never used.
-  * A few RAMs of several rows each: the same M4K count as one wide RAM when a RAM's width is a multiple of 4 bits,
-  * and each RAM has its own registers of the write's address and enable (one register would drive every block of
+  * A few RAMs of several rows each (the same M4K count as one wide RAM when each RAM but the last fills whole
+  * blocks), and each RAM has its own registers of the write's address and enable (one register would drive every block of
   * a wide RAM across the chip). */
 class RowWindow(val c: RowWindowConfig) extends Area {
   val rams = c.ramRows.map(rs => Mem(Bits(rs.size * c.dataWidth bits), c.maxWidth))
@@ -78,6 +78,7 @@ class LineBuffer(f: FrameConfig, rows: Int) extends Component {
 
 object LineBuffer {
 
-  /** stored rows per RAM: 8-bit rows keep every RAM a multiple of 4 bits wide (whole M4K blocks) */
-  val rowsPerRam: Int = 5
+  /** stored rows per RAM: 9 rows of 8 bits fill whole M4K blocks of 512 x 9 (72 bits), so the RAMs take no more
+    * blocks than one wide RAM would */
+  val rowsPerRam: Int = 9
 }
