@@ -144,7 +144,9 @@ class GenerateSpec extends AnyFunSuite {
       banks.map(_.depth).sum == config.descriptor.smoothedRows * config.maxWidth,
       "a row of maxWidth bytes per ring slot"
     )
-    assert(rams.exists(_.name == "\\window_ram") && rams.exists(_.name == "\\suppress_scores_ram"))
-    assert(rams.filter(_.name == "\\window_ram").forall(_.depth == config.maxWidth), "depth = maxWidth")
+    val window = rams.filter(_.name.startsWith("\\window_rams_"))
+    assert(window.nonEmpty && rams.exists(_.name.startsWith("\\suppress_scores_rams_")))
+    assert(window.forall(_.depth == config.maxWidth), "depth = maxWidth")
+    assert(window.map(_.width).sum == (config.rawRows - 1) * 8, "every stored raw row, a byte a pixel")
   }
 }
