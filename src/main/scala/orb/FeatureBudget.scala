@@ -151,13 +151,14 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
       for (((bank, cell), l) <- lists.zipWithIndex) yield new Area {
         val list = banks(bank)(cell)
         val rank = arriving.ranks(l)
-        // four copies (kept apart): whether place i stays, and whether place i + 1 takes the corner, each once for
-        // the score's bits and once for the rest of the entry
-        val aheads = Seq.fill(4)(Vec((0 until k).map { i =>
+        // two copies (kept apart): one for whether place i stays, one for whether place i + 1 takes the corner
+        val aheads = Seq.fill(2)(Vec((0 until k).map { i =>
           val a = RegNext(list(i).valid && list(i).rank >= rank && inList(i))
           a.addAttribute("preserve")
           a
         }))
+        val stays = aheads(0)
+        val takesAfter = aheads(1)
         val full = RegNext((0 until k).map(i => !inList(i) || list(i).valid).andR)
 
         /** the corner's list, one enable per place (kept apart): no one enable drives a whole list */
@@ -174,19 +175,16 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
         fresh.rank := compared.ranks(l)
         // Entries ahead of the corner stay, the corner takes the first place after them, the rest move down one; a
         // place beyond the line length's is emptied (only the valid flags are read of an empty entry).
-        def placed[T <: Data](i: Int, copy: Int)(field: Entry => T): T = {
-          val (stays, takesAfter) = (aheads(2 * copy), aheads(2 * copy + 1))
-          val shifted = if (i == 0) field(fresh) else Mux(takesAfter(i - 1), field(fresh), field(list(i - 1)))
-          Mux(stays(i), field(list(i)), shifted)
-        }
         val updated = Vec.fill(k)(Entry())
         for (i <- 0 until k) {
           val e = updated(i)
-          e.score := placed(i, 0)(_.score)
-          e.xOffset := placed(i, 1)(_.xOffset)
-          e.yOffset := placed(i, 1)(_.yOffset)
-          e.rank := placed(i, 1)(_.rank)
-          e.valid := placed(i, 1)(_.valid) && inList(i)
+          if (i == 0) e := fresh
+          else {
+            e := list(i - 1)
+            when(takesAfter(i - 1)) { e := fresh }
+          }
+          when(stays(i)) { e := list(i) }
+          when(!inList(i)) { e.valid := False }
         }
         for (i <- 0 until k) when(writes(i)) { list(i) := updated(i) }
 
@@ -262,17 +260,15 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
     require(candidates.size >= 2, "a band holds at least two entries")
     val choice = lastLevelOf(candidates.toSeq)
     val first = RegNext(choice)
-    // the winner's place in each cell, copies per bank and cell (kept apart): one picks its cell's score and
-    // empties its cell's entry, one its rank
-    def placeCopies(): IndexedSeq[IndexedSeq[Bits]] = (0 until 2).map { _ =>
+    // the winner's place in each cell, one copy per bank and cell (kept apart): each picks its cell's score and
+    // empties its cell's entry
+    val places = (0 until 2).map { _ =>
       (0 until cells).map { cell =>
         val r = RegNext(choice.place(cell * k, k bits))
         r.addAttribute("preserve")
         r
       }
     }
-    val places = placeCopies()
-    val rankPlaces = placeCopies()
     // the choice's register levels, then the score picked by its place into a register: the winner leaves after
     // them (its entry emptied then, a clock before the next round's entries are registered)
     val steps = 1 + log2Up(candidates.size) + 2
@@ -291,7 +287,7 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
     val scores = cellScores.map(cs => RegNext(cs.reduce(_ | _)))
     out.score := Mux(bank === 1, scores(1), scores(0))
     // and its rank, picked alike (the winner's level is the rank's leading bits: no second leading-one search)
-    val cellRanks = banks.zip(rankPlaces).map { case (bk, bankPlaces) =>
+    val cellRanks = banks.zip(places).map { case (bk, bankPlaces) =>
       bk.zip(bankPlaces).map { case (list, place) => RegNext(MuxOH.or(place: Bits, list.map(_.rank).toSeq)) }
     }
     val ranks = cellRanks.map(cs => RegNext(cs.reduce(_ | _)))

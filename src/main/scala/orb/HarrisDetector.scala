@@ -273,13 +273,8 @@ class HarrisDetector(f: FrameConfig, h: HarrisConfig, columnRows: Int, stages: H
     val p = n(PIXEL)
     // The geometry registers only change at a start of frame that follows a good frame of the same geometry,
     // so beats still in flight from the previous frame see the right values.
-    // (v - reach) in [border, size - 1 - border], without unsigned wrap-around for small frames: v + border <
-    // size + reach, the bound size + reach - border (> 0: size >= 16) registered beside the geometry, so one
-    // comparison remains
-    def inside(v: UInt, size: UInt) = {
-      val bound = RegNext((size +^ reach).intoSInt - h.border)
-      v >= h.border + reach && v.intoSInt < bound
-    }
+    // (v - reach) in [border, size - 1 - border], without unsigned wrap-around for small frames.
+    def inside(v: UInt, size: UInt) = v >= h.border + reach && (v +^ h.border) < (size +^ reach)
     // compared a stage ahead, from the same beat's position
     val w = at(stages.window)
     val INSIDE_X = w.insert(inside(w(PIXEL).x, geometry.width))
