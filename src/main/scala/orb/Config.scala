@@ -423,6 +423,9 @@ object MatcherConfig {
     * from its lane into a register, then the push's register) */
   val pushLatency: Int = crossLatency + 2
 
+  /** Parts of the input register's payload (a feature), each loaded by its own copy of the register's empty flag. */
+  val itemParts: Int = 8
+
   /** Parts of a lane's copy of the live descriptor, each loaded by its own copy of the idle flag. */
   val liveDescriptorParts: Int = 8
 

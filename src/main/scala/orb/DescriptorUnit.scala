@@ -139,7 +139,7 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
     val item = ReadyCorner()
     val rotation = Rotation()
   }
-  val ready = StreamFifo(ReadyCorner(), d.readyQueueDepth)
+  val ready = StreamFifo(ReadyCorner(), d.readyQueueDepth, forFMax = true)
   ready.io.push.valid := io.corners.valid
   ready.io.push.payload.assignSomeByName(io.corners.payload)
   ready.io.push.payload.startRow := io.corners.rowTag + OrbDescriptorConfig.startRowOffset
@@ -243,9 +243,20 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
     val due = current && !early
     // the engine free for a corner, a clock late (never right after a start, which takes the slot)
     val free = Reg(Bool()) init False
-    // the decisions registered; a row start in the clock of a start (known a clock ahead) holds it
-    val start = RegNext(due && !late && dataOk && free && !head.fire && !ring.startsRow) init False
-    val refuse = RegNext(due && (late || !dataOk) && !head.fire) init False
+    // the decisions registered; a row start in the clock of a start (known a clock ahead) holds it. A head that is
+    // due is a corner (no frame's end), so it leaves now only by these decisions: no other way out (the output's
+    // readiness, the engine's idleness) reaches them.
+    val start, refuse = Reg(Bool()) init False
+    val decided = start || refuse
+    val starts = due && !late && dataOk && free && !decided && !ring.startsRow
+    start := starts
+    refuse := due && (late || !dataOk) && !decided
+    // a copy of `start` per engine slot (kept apart): each loads its slot's corner
+    val slotStarts = Seq.fill(2) {
+      val s = RegNext(starts) init False
+      s.addAttribute("preserve")
+      s
+    }
     // the newest patch row (cy + 18) is in the slot of raw row cy + 21, `since + 1` rows back; the oldest 36 more
     // (registered before it is wrapped into the ring: the wrap is formed as a start takes it)
     val back =
@@ -257,9 +268,7 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
     // A frame end leaves when every corner before it has: the engine idle.
     val marker = head.valid && c.end.now && engine.idle
     head.ready := start || refuse || (marker && output.ready)
-    when(start) {
-      engine.begin(head.payload, base, rowsLeft)
-    }
+    engine.begin(head.payload, base, rowsLeft, start, slotStarts)
   }
 
   /** One corner in the engine, from its start until its feature is handed on: what the front end needs of it (the
@@ -298,7 +307,7 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
       * is known then) into a register, so the front end's enables do not wait for the slot's state. Whether the
       * slot runs on its last row in the next clock, from the transitions that can lead there: it takes a corner
       * with one row left, or it runs on, not complete, into its last row. `abandonCopies` (kept apart) serve the
-      * front end's copies of `advance`. */
+      * front end's copies of `advance`, `abandonCopy()` makes one more for another consumer far from the slot. */
     val abandon = Reg(Bool()) init False
     val abandonNext = ring.startsRow && Mux(
       begins,
@@ -306,11 +315,12 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
       running && !abandon && !collectsLast && Mux(ring.rowStart, onSecondLastRow, onLastRow)
     )
     abandon := abandonNext
-    val abandonCopies = Seq.fill(DescriptorUnit.advanceCopies / DescriptorUnit.advanceCopiesPerAbandon) {
+    def abandonCopy(): Bool = {
       val a = RegNext(abandonNext) init False
       a.addAttribute("preserve")
       a
     }
+    val abandonCopies = Seq.fill(DescriptorUnit.advanceCopies / DescriptorUnit.advanceCopiesPerAbandon)(abandonCopy())
 
     def begin(c: PreparedCorner, b: UInt, left: UInt): Unit = {
       begins := True
@@ -324,12 +334,13 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
       lastGroup := Bool(groups == 1)
     }
 
-    /** A group's results collected when `enables` (copies of one flag, each for a part of the descriptor, the first
-      * for the count too): the descriptor is complete after the last (unless abandoned in that clock). */
+    /** A group's results collected when `enables` (copies of one flag: the first for the count and the state, each
+      * of the others for a part of the descriptor): the descriptor is complete after the last (unless abandoned in
+      * that clock). */
     def collected(results: Bits, enables: Seq[Bool]): Unit = {
       val shifted = results ## descriptor(descriptor.high downto testsPerGroup)
-      val partBits = descriptor.getWidth / enables.size
-      for ((enable, p) <- enables.zipWithIndex) {
+      val partBits = descriptor.getWidth / enables.tail.size
+      for ((enable, p) <- enables.tail.zipWithIndex) {
         when(enable) {
           descriptor(p * partBits, partBits bits) := shifted(p * partBits, partBits bits)
         }
@@ -377,15 +388,21 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
       t
     }
 
-    def begin(c: PreparedCorner, b: UInt, left: UInt): Unit = {
-      for (s <- slots) {
-        when(s.takesNext) {
-          s.begin(c, b, left)
+    /** A corner starts when `start`; `slotStarts` are copies of it (kept apart), one per slot, each loading that
+      * slot's registers. */
+    def begin(c: PreparedCorner, b: UInt, left: UInt, start: Bool, slotStarts: Seq[Bool]): Unit = {
+      for ((s, slotStart) <- slots.zip(slotStarts)) {
+        when(slotStart) {
+          when(s.takesNext) {
+            s.begin(c, b, left)
+          }
+          s.takesNext := !s.takesNext
         }
-        s.takesNext := !s.takesNext
       }
-      fetch.restart()
-      fetch.tag := nextTag
+      when(start) {
+        fetch.restart()
+        fetch.tag := nextTag
+      }
     }
 
     /** The oldest corner's feature was handed on, or its abandonment counted. */
@@ -420,19 +437,22 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
     }
 
     /** Each copy of `advance` enables registers made one after the other (a stage's, a table part's: registers
-      * that lie together), about an equal share of the bits each, so no copy's wires span the front end. */
+      * that lie together), about an equal share of the bits each (a copy's share is what is left over the copies
+      * left, so the last takes no more than the others), so no copy's wires span the front end. */
     def shareEnables(): Unit = {
-      val advanceCopies = issue.advanceCopies
-      val share = (enableRequests.map(_._2).sum + advanceCopies.size - 1) / advanceCopies.size
+      val copies = issue.advanceCopies
+      var left = enableRequests.map(_._2).sum
       var copy = 0
       var load = 0
       for ((e, bits) <- enableRequests) {
-        if (load > 0 && load + bits > share && copy < advanceCopies.size - 1) {
+        val share = (load + left) / (copies.size - copy)
+        if (load > 0 && load + bits / 2 > share && copy < copies.size - 1) {
           copy += 1
           load = 0
         }
-        e := advanceCopies(copy)
+        e := copies(copy)
         load += bits
+        left -= bits
       }
     }
     def step[T <: Data](v: T): T = RegNextWhen(v, enable(widthOf(v)))
@@ -466,7 +486,8 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
         when(enable(widthOf(g)) && valid) {
           g := g + 1
         }
-        when(valid && abandons(tag)) {
+        // the slot's abandonment from copies of its own (the counts lie apart from the slots)
+        when(valid && Mux(tag, slots(1).abandonCopy(), slots(0).abandonCopy())) {
           g := groups
         }
         copies += g
@@ -673,7 +694,7 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
         (0 until pointsPerGroup).map(i => step(rotated.rowOffset(i) === 0 || rotated.rowOffset(i) === 2 * sampleReach))
     }
     val planner = new GroupPlanner(bankWidth)
-    planner.io.advance := enable(GroupPlanner.latency * widthOf(planner.io.plan))
+    for ((advance, bits) <- planner.io.advance.zip(planner.stepBits)) advance := enable(bits)
     for (i <- 0 until pointsPerGroup) {
       planner.io.points(i).bank := bankOf(located.points(i).slot)
       planner.io.points(i).portB := located.portB(i)
@@ -881,7 +902,7 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
       // a slot's group complete (`reads8` valid, last and of that slot), decided beside `reads8` into copies of its
       // own (kept apart), each enabling a part of the slot's descriptor
       for (s <- slots) {
-        val enables = Seq.fill(DescriptorUnit.collectCopies) {
+        val enables = Seq.fill(1 + DescriptorUnit.collectCopies) {
           val e = RegNext(r.valid && r.last && r.tag === Bool(s.tag) && !abandons(r.tag)) init False
           e.addAttribute("preserve")
           e
@@ -1045,7 +1066,8 @@ object DescriptorUnit {
   /** copies of `advance` served by one copy of a slot's abandonment */
   val advanceCopiesPerAbandon: Int = 4
 
-  /** copies of a slot's "group collected" flag, each enabling a part of its descriptor */
+  /** copies of a slot's "group collected" flag, each enabling a part of its descriptor (and one more for its count
+    * and state) */
   val collectCopies: Int = 4
 
   /** parts of the output register's descriptor, each loaded by its own copy of the load enable and the slot's tag */

@@ -19,8 +19,8 @@ case class GroupPlan() extends Bundle {
 }
 
 /** `DescriptorSchedule.plan` in hardware: the read schedule of a group of tests from its points' banks, in
-  * `GroupPlanner.latency` registered steps that all advance with `advance` (the descriptor engine's front end holds
-  * while a group takes more than one clock). It depends on nothing read, so it runs ahead of the reads.
+  * `GroupPlanner.latency` registered steps that advance with `advance` (one enable per step, each a copy of the
+  * descriptor engine's front end's: it holds while a group takes more than one clock). It depends on nothing read, so it runs ahead of the reads.
   *
   * Steps: (1) which points share a bank; (2) per candidate set (the group, each test) the port rule's flags: forced
   * to port A, alone in its bank, and whether the set can go in one clock at all; (3) counts: which points go through
@@ -29,11 +29,11 @@ case class GroupPlan() extends Bundle {
 class GroupPlanner(bankWidth: Int) extends Component {
   import GroupPlanner._
   val io = new Bundle {
-    val advance = in Bool ()
+    val advance = in Vec (Bool(), latency)
     val points = in Vec (PlannedPoint(bankWidth), pointsPerGroup)
     val plan = out(GroupPlan())
   }
-  def step[T <: Data](v: T): T = RegNextWhen(v, io.advance)
+  def step[T <: Data](v: T, s: Int): T = RegNextWhen(v, io.advance(s))
 
   val all: Seq[Int] = 0 until pointsPerGroup
   val tests: Seq[Seq[Int]] = (0 until testsPerGroup).map(t => Seq(2 * t, 2 * t + 1))
@@ -41,8 +41,8 @@ class GroupPlanner(bankWidth: Int) extends Component {
 
   // (1) pairs in one bank
   val shared = new Area {
-    val same = step(Vec(for (i <- all; j <- all if i < j) yield io.points(i).bank === io.points(j).bank))
-    val portB = step(Vec(io.points.map(_.portB)))
+    val same = step(Vec(for (i <- all; j <- all if i < j) yield io.points(i).bank === io.points(j).bank), 0)
+    val portB = step(Vec(io.points.map(_.portB)), 0)
     def apply(i: Int, j: Int): Bool = {
       val (a, b) = (i min j, i max j)
       same(all.filter(_ < a).map(k => pointsPerGroup - 1 - k).sum + (b - a - 1))
@@ -70,7 +70,7 @@ class GroupPlanner(bankWidth: Int) extends Component {
       o.fits := !(triples ++ portBTwice).foldLeft(False)(_ || _)
       o
     }
-    val bySet = sets.map(set => step(of(set)))
+    val bySet = sets.map(set => step(of(set), 1))
   }
 
   // (3) port A or B per point of each set; whether the whole group fits (at most 4 per port)
@@ -96,7 +96,7 @@ class GroupPlanner(bankWidth: Int) extends Component {
       }
       o
     }
-    val bySet = sets.zip(flags.bySet).map { case (set, s) => step(of(s, set.size)) }
+    val bySet = sets.zip(flags.bySet).map { case (set, s) => step(of(s, set.size), 2) }
   }
 
   // (4) lanes, the mode and each point's clock
@@ -125,8 +125,16 @@ class GroupPlanner(bankWidth: Int) extends Component {
       plan.lane(i) := Mux(group.fits, groupLanes(i), Mux(test(t).fits, testLanes(t)(i % 2), alone))
     }
     plan.issues := Mux(group.fits, U(1, issuesWidth bits), testStart.last)
-    io.plan := step(plan)
+    io.plan := step(plan, 3)
   }
+
+  /** the bits each step's enable loads */
+  def stepBits: Seq[Int] = Seq(
+    widthOf(shared.same) + widthOf(shared.portB),
+    flags.bySet.map(widthOf(_)).sum,
+    ports.bySet.map(widthOf(_)).sum,
+    widthOf(io.plan)
+  )
 }
 
 object GroupPlanner {

@@ -63,9 +63,10 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
   def clearedCross: Cross = { val c = Cross(); c.distance := none; c.mutual := False; c.liveX := 0; c.liveY := 0; c }
 
   // The feature stream through a register at the boundary, valid and ready both registered (`halfPipe`: one item
-  // per two clocks, where features come at most one per descriptor): the load and the scan decide on local
-  // copies, and the copy is enabled by a register, not by the handshake.
-  val item = io.features.halfPipe()
+  // per two clocks, where features come at most one per descriptor; its payload loaded in parts, each by a copy of
+  // the empty flag): the load and the scan decide on local copies, and the copy is enabled by a register, not by
+  // the handshake.
+  val item = Pipes.halfPipe(io.features, MatcherConfig.itemParts)
   val isKey = item.keyframe
 
   // Frame state: the first item of a frame samples the parameters and, on a keyframe, empties the store.
@@ -189,7 +190,7 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
     val readAddr = group.resize(groupWidth)
   }
 
-  val output = StreamFifo(CorrespondenceHw(f), m.outputDepth)
+  val output = StreamFifo(CorrespondenceHw(f), m.outputDepth, forFMax = true)
   // Waiting for the consumer, with a limit. The room is judged from the last clock's free places (at most one push
   // a clock takes one away), compared in registers, so no decision waits for the FIFO's pointers or a comparison.
   val paced = new Area {

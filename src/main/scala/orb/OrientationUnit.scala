@@ -30,7 +30,7 @@ class OrientationUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, c
   val cw = f.coordWidth
   val R = patchRadius
 
-  val queue = StreamFifo(CornerHw(f, h), d.cornerQueueDepth)
+  val queue = StreamFifo(CornerHw(f, h), d.cornerQueueDepth, forFMax = true)
   queue.io.push.valid := io.corners.valid
   queue.io.push.payload := io.corners.payload
   val queueDrop = io.corners.valid && !queue.io.push.ready

@@ -70,7 +70,7 @@ class DescriptorPlannerSpec extends AnyFunSuite {
         1 + r.nextInt(banks)
       ))
     planner.doSim("planner", seed.toInt) { dut =>
-      dut.io.advance #= true
+      dut.io.advance.foreach(_ #= true)
       for (p <- dut.io.points) {
         p.bank #= 0
         p.portB #= false

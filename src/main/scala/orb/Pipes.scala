@@ -1,0 +1,39 @@
+package orb
+
+import spinal.core._
+import spinal.lib._
+
+/** Stream registers shaped for timing. */
+object Pipes {
+
+  /** `in.halfPipe()` (a beat every other clock, the ready the valid register's complement) whose payload is loaded in
+    * `parts` slices, each by its own copy of the "empty" flag (kept apart): no one register enables every bit of a
+    * wide payload. */
+  def halfPipe[T <: Data](in: Stream[T], parts: Int): Stream[T] = {
+    require(parts >= 1)
+    val out = Stream(cloneOf(in.payload))
+    val valid = RegInit(False)
+    when(in.valid) {
+      valid := True
+    }
+    when(out.fire) {
+      valid := False
+    }
+    val bits = in.payload.asBits
+    val width = bits.getWidth
+    val partWidth = (width + parts - 1) / parts
+    val stored = Reg(Bits(width bits))
+    for (p <- 0 until parts if p * partWidth < width) {
+      val empty = RegNext(!valid.getAheadValue()) init True
+      empty.addAttribute("preserve")
+      val slice = (width - p * partWidth) min partWidth
+      when(empty) {
+        stored(p * partWidth, slice bits) := bits(p * partWidth, slice bits)
+      }
+    }
+    in.ready := !valid
+    out.valid := valid
+    out.payload.assignFromBits(stored)
+    out
+  }
+}
