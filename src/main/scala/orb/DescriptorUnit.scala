@@ -76,6 +76,13 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
     val s = io.smoothed.stage()
     s.addAttribute("preserve")
     val startsRow = RegNext(io.smoothed.valid && io.smoothed.pixel.x === 0) init False
+
+    /** a copy of `startsRow` (kept apart) for a consumer far from the ring's slot and row registers */
+    def startsRowCopy(): Bool = {
+      val r = RegNext(io.smoothed.valid && io.smoothed.pixel.x === 0) init False
+      r.addAttribute("preserve")
+      r
+    }
     val startsFrame = RegNext(io.smoothed.valid && io.smoothed.pixel.x === 0 && io.smoothed.pixel.y === 0) init False
     val writes = RegNext(io.smoothed.valid && io.smoothed.pixel.x >= blurRadius) init False
     val slot = Reg(UInt(slotWidth bits)) init 0
@@ -98,7 +105,7 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
     // the bank of the slot, one-hot beside it: it moves on when a row start leaves the bank's last slot
     val bank = Reg(Bits(banks bits)) init 1
     val leavesBank = RegNext(slotNext.lsb || slotNext === rows - 1) init False
-    val bankNext = Mux(startsRow && leavesBank, bank.rotateLeft(1), bank)
+    val bankNext = Mux(startsRowCopy() && leavesBank, bank.rotateLeft(1), bank)
     bank := bankNext
     // the newest beat's write, decoded for the banks
     val writeBank = RegNext(Mux(writes, bankNext, B(0, banks bits))) init 0
@@ -248,7 +255,8 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
     // readiness, the engine's idleness) reaches them.
     val start, refuse = Reg(Bool()) init False
     val decided = start || refuse
-    val starts = due && !late && dataOk && free && !decided && !ring.startsRow
+    val rowStarts = ring.startsRowCopy()
+    val starts = due && !late && dataOk && free && !decided && !rowStarts
     start := starts
     refuse := due && (late || !dataOk) && !decided
     // a copy of `start` per engine slot (kept apart): each loads its slot's corner
@@ -309,7 +317,8 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
       * with one row left, or it runs on, not complete, into its last row. `abandonCopies` (kept apart) serve the
       * front end's copies of `advance`, `abandonCopy()` makes one more for another consumer far from the slot. */
     val abandon = Reg(Bool()) init False
-    val abandonNext = ring.startsRow && Mux(
+    val rowStarts = ring.startsRowCopy()
+    val abandonNext = rowStarts && Mux(
       begins,
       beginsOnLastRow,
       running && !abandon && !collectsLast && Mux(ring.rowStart, onSecondLastRow, onLastRow)
@@ -703,7 +712,7 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
       val token = (0 until GroupPlanner.latency).foldLeft(located.token)((v, _) => stepToken(v))
       val points = (0 until GroupPlanner.latency).foldLeft(Vec(located.points))((v, _) => step(v))
       val plan = planner.io.plan
-      val single = plan.issues === 1
+      val single = plan.single
     }
 
     // ---- issue: a group's clocks one after the other ----
@@ -739,8 +748,18 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
       val points = step(planned.points)
       val plan = step(planned.plan)
       val clock = Reg(UInt(GroupPlanner.issueWidth bits)) init 0
+
+      /** the group's next clock is its last (`clock` + 2 == `issues`), compared a clock ahead from the next values
+        * of both (a new group's plan when the front end advances, else the same plan a clock on) */
+      val lastNext = RegNext(
+        Mux(
+          advance,
+          planned.plan.double,
+          (clock.resize(GroupPlanner.issuesWidth + 1) + 3) === plan.issues.resize(GroupPlanner.issuesWidth + 1)
+        )
+      ) init False
       // The front end advances in the clock after a group's last: registered, from the group that comes next.
-      val continues = Mux(advance, !planned.token.valid || planned.single, (clock +^ 2) === plan.issues)
+      val continues = Mux(advance, !planned.token.valid || planned.single, lastNext)
       advance := continues
       when(advance) {
         clock := 0

@@ -159,6 +159,19 @@ object Ecp5Proxy {
       rtlLines: Seq[String]
   )
 
+  /** added to a seed whose reset arc nextpnr cannot route, for the seed run in its place */
+  val replacementSeedOffset: Int = 100
+
+  /** nextpnr stopped on the reset's arc from its flip-flop (`reset_q`) to the global buffer (the wrapper's DCCA) */
+  private def resetArcFailed(work: File, seed: Int): Boolean = {
+    val log = new File(work, s"nextpnr_seed$seed.log")
+    log.isFile && {
+      val src = scala.io.Source.fromFile(log)
+      try src.getLines().exists(l => l.contains("Failed to route arc") && l.contains("'reset_q'"))
+      finally src.close()
+    }
+  }
+
   /** One seed: `fmaxMhz` only when routed; `outcome` says why not otherwise. `failing`: the endpoints that miss the
     * target (`netlist.py slack`: every one of them, grouped by source and sink register, worst first). */
   final case class Run(
@@ -241,7 +254,23 @@ object Ecp5Proxy {
       )
       "not packed"
     }
-    val runs = seeds.map(seed => placeAndRoute(bin, work, env, module, seed, minutes, targetMhz))
+    // A seed on which nextpnr cannot route the reset's arc from its flip-flop to its global buffer (router2 gives up
+    // on that one arc at once, before any congestion: a limit of the router at the buffer's input, not of the
+    // design) is replaced by seed + `Ecp5Proxy.replacementSeedOffset`, and the run says so.
+    val runs = seeds.map { seed =>
+      val run = placeAndRoute(bin, work, env, module, seed, minutes, targetMhz)
+      if (run.routed || !resetArcFailed(work, seed)) run
+      else {
+        val replacement = seed + replacementSeedOffset
+        println(
+          s"${Report.app}: $module: seed $seed: the reset's arc to its global buffer did not route; seed $replacement instead"
+        )
+        val r = placeAndRoute(bin, work, env, module, replacement, minutes, targetMhz)
+        r.copy(outcome =
+          s"${r.outcome}, in place of seed $seed (whose reset arc to its global buffer nextpnr could not route)"
+        )
+      }
+    }
     Timing(module, runs, packed, (System.nanoTime() - started) / 1e9)
   }
 

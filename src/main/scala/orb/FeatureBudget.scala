@@ -151,21 +151,31 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
       for (((bank, cell), l) <- lists.zipWithIndex) yield new Area {
         val list = banks(bank)(cell)
         val rank = arriving.ranks(l)
+
+        /** the places in use, the list's own copy (kept apart: one register would reach every list) */
+        val inUse = (0 until k).map { i =>
+          val r = RegNext(inList(i)) init False
+          r.addAttribute("preserve")
+          r
+        }
         // two copies (kept apart): one for whether place i stays, one for whether place i + 1 takes the corner
         val aheads = Seq.fill(2)(Vec((0 until k).map { i =>
-          val a = RegNext(list(i).valid && list(i).rank >= rank && inList(i))
+          val a = RegNext(list(i).valid && list(i).rank >= rank && inUse(i))
           a.addAttribute("preserve")
           a
         }))
         val stays = aheads(0)
         val takesAfter = aheads(1)
-        val full = RegNext((0 until k).map(i => !inList(i) || list(i).valid).andR)
+        val full = RegNext((0 until k).map(i => !inUse(i) || list(i).valid).andR)
 
-        /** the corner's list, one enable per place (kept apart): no one enable drives a whole list */
+        /** the corner's list, one enable per place and part of the entry (kept apart: the score, which only the
+          * emission reads, and the rest, which the comparisons read): no one enable drives a whole list or entry */
         val writes = (0 until k).map { _ =>
-          val w = RegNext(arriving.selects(l)) init False
-          w.addAttribute("preserve")
-          w
+          Seq.fill(2) {
+            val w = RegNext(arriving.selects(l)) init False
+            w.addAttribute("preserve")
+            w
+          }
         }
         val fresh = Entry()
         fresh.valid := True
@@ -184,12 +194,22 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
             when(takesAfter(i - 1)) { e := fresh }
           }
           when(stays(i)) { e := list(i) }
-          when(!inList(i)) { e.valid := False }
+          when(!inUse(i)) { e.valid := False }
         }
-        for (i <- 0 until k) when(writes(i)) { list(i) := updated(i) }
+        for (i <- 0 until k) {
+          when(writes(i)(0)) {
+            list(i).score := updated(i).score
+          }
+          when(writes(i)(1)) {
+            list(i).valid := updated(i).valid
+            list(i).xOffset := updated(i).xOffset
+            list(i).yOffset := updated(i).yOffset
+            list(i).rank := updated(i).rank
+          }
+        }
 
         /** the corner is deselected here: its list keeps k entries, the corner itself or the weakest it pushes out */
-        val deselects = writes.head && full
+        val deselects = writes.head(1) && full
       }
 
     /** a corner deselected in this clock */
@@ -201,9 +221,11 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
 
   // A band is complete at the first pixel of row (band end + emitRowOffset); its winners leave in raster order.
   val emission = new Area {
-    // the stream position registered, and whether it triggers a band compared a clock ahead into a register (the
-    // trigger holds the frame end too): the band starts a clock after its row's first pixel
-    val p = io.pixels
+    // the stream position registered on the way in (the line buffer lies apart), and whether it triggers a band
+    // compared a clock ahead into a register (the trigger holds the frame end too): the band starts two clocks
+    // after its row's first pixel reaches the budget (its corners came rows before; the frame's end comes after
+    // the detector's latency)
+    val p = io.pixels.stage()
     val rowStart = p.valid && p.x === 0 && p.active
     val sinceEnd = p.y - b.emitRowOffset
     val triggers = rowStart && p.y >= b.cellHeight + b.emitRowOffset && sinceEnd(b.bandShift - 1 downto 0) === 0

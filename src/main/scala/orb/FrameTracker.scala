@@ -62,13 +62,22 @@ class FrameTracker(c: FrameConfig) extends Component {
 
   val input = io.pixels.stage()
   val b = input.payload
-  val fire = input.valid
 
-  /** A start of frame, decoded into registers on the way in, two copies kept apart: `starts` loads the frame's
-    * fields, `opens` picks between the two cases below for every beat field. */
+  /** A start of frame, decoded into a register on the way in: `starts` loads the frame's fields. */
   val starts = RegNext(io.pixels.valid && io.pixels.sof) init False
-  val opens = RegNext(io.pixels.valid && io.pixels.sof) init False
-  opens.addAttribute("preserve")
+
+  /** A beat's kind, decoded into registers on the way in, one copy (kept apart) per group of registers it drives:
+    * `opens` a start of frame, `runs` any other beat inside a frame (a frame is entered at the first start of
+    * frame and never left), so neither waits for the input register's valid or `inFrame`. */
+  class BeatKind extends Area {
+    val opens = RegNext(io.pixels.valid && io.pixels.sof) init False
+    val runs = RegNext(io.pixels.valid && !io.pixels.sof && (inFrame || starts)) init False
+    opens.addAttribute("preserve")
+    runs.addAttribute("preserve")
+  }
+
+  /** the width side (x, the line's width), the height side (y), the frame's flags and counts, the output */
+  val xSide, ySide, flagSide, outSide = new BeatKind
 
   /** The frame so far is good and would lock the geometry if a start of frame came now: in a frame, no fault, at
     * the start of a line after at least one line, and completed if processed. Kept in registers from the state's
@@ -113,7 +122,7 @@ class FrameTracker(c: FrameConfig) extends Component {
       (!processed || done || complete)
   }
 
-  when(fire && starts) {
+  when(starts) {
     inFrame := True
     locked := learnt
     key := b.keyframe
@@ -132,17 +141,38 @@ class FrameTracker(c: FrameConfig) extends Component {
     }
   }
 
-  when(fire && opens) {
+  // The frame's flags: the first beat against the locked geometry, the others against the comparisons.
+  when(flagSide.opens) {
     val l = opening.l
     processed := l
     active := l && !opening.fault && !opening.complete
     bad := opening.fault
     done := opening.complete
     learntBeat := opening.learntAfter
-    known.yMax := False
+    when(b.eol) {
+      lineFaulted := False
+    } otherwise {
+      lineFaulted := opening.lineFault
+    }
+  }
+  when(flagSide.runs) {
+    active := active && !running.fault && !running.complete
+    bad := bad || running.fault
+    done := done || running.complete
+    learntBeat := running.learntAfter
+    when(b.eol) {
+      lineFaulted := False
+    } otherwise {
+      lineFaulted := lineFaulted || running.lineFault
+    }
+  }
+
+  // The width side: x and the line's width, with their comparisons.
+  when(xSide.opens) {
+    val l = opening.l
     known.xMax := False
     when(b.eol) {
-      // the next line, y = 1: the width is the locked one, or learnt as 1
+      // the next line, x = 0: the width is the locked one, or learnt as 1
       widthKnown := True
       lineW := Mux(l, lineW, U(1, cw bits))
       known.lineW0 := l && known.lineW0
@@ -154,14 +184,6 @@ class FrameTracker(c: FrameConfig) extends Component {
       known.wLast := !l || known.lineW1
       x := 0
       known.xZero := True
-      y := 1
-      known.remH := Mux(l, y - 1, U(c.maxHeight - 1, cw bits)).resize(remWidth).asSInt
-      known.hOver := l && (known.yZero || known.yOne)
-      known.hLast := l && known.yTwo
-      known.yZero := False
-      known.yOne := True
-      known.yTwo := False
-      lineFaulted := False
     } otherwise {
       // x = 1 on the first line, against the locked width or the limits
       widthKnown := l
@@ -177,24 +199,11 @@ class FrameTracker(c: FrameConfig) extends Component {
       known.wLast := l && known.lineW2
       x := 1
       known.xZero := False
-      y := 0
-      known.remH := Mux(l, y, U(c.maxHeight, cw bits)).resize(remWidth).asSInt
-      known.hOver := l && known.yZero
-      known.hLast := l && known.yOne
-      known.yZero := True
-      known.yOne := False
-      known.yTwo := False
-      lineFaulted := opening.lineFault
     }
   }
-
-  when(fire && !opens && inFrame) {
-    active := active && !running.fault && !running.complete
-    bad := bad || running.fault
-    done := done || running.complete
-    learntBeat := running.learntAfter
+  when(xSide.runs) {
     when(b.eol) {
-      // the next line: x = 0 against the (possibly learnt) width; y one more (saturating at maxHeight)
+      // the next line: x = 0 against the (possibly learnt) width
       val keep = running.keep
       widthKnown := running.knownAfter
       when(!keep) {
@@ -212,19 +221,6 @@ class FrameTracker(c: FrameConfig) extends Component {
       x := 0
       known.xZero := True
       known.xMax := False
-      when(!known.yMax) {
-        y := y + 1
-        known.remH := known.remH - 1
-        known.hOver := known.remH <= 1
-        known.hLast := known.remH === 2
-        known.yOne := known.yZero
-        known.yMax := y === c.maxHeight - 1
-      } otherwise {
-        known.yOne := False
-      }
-      known.yZero := False
-      known.yTwo := known.yOne
-      lineFaulted := False
     } otherwise {
       // the next pixel of the line: x one more (saturating at maxWidth)
       when(!known.xMax) {
@@ -235,8 +231,46 @@ class FrameTracker(c: FrameConfig) extends Component {
         known.xZero := False
         known.xMax := x === c.maxWidth - 1
       }
-      lineFaulted := lineFaulted || running.lineFault
     }
+  }
+
+  // The height side: y and its comparisons.
+  when(ySide.opens) {
+    val l = opening.l
+    known.yMax := False
+    when(b.eol) {
+      // the next line, y = 1
+      y := 1
+      known.remH := Mux(l, y - 1, U(c.maxHeight - 1, cw bits)).resize(remWidth).asSInt
+      known.hOver := l && (known.yZero || known.yOne)
+      known.hLast := l && known.yTwo
+      known.yZero := False
+      known.yOne := True
+      known.yTwo := False
+    } otherwise {
+      y := 0
+      known.remH := Mux(l, y, U(c.maxHeight, cw bits)).resize(remWidth).asSInt
+      known.hOver := l && known.yZero
+      known.hLast := l && known.yOne
+      known.yZero := True
+      known.yOne := False
+      known.yTwo := False
+    }
+  }
+  when(ySide.runs && b.eol) {
+    // y one more (saturating at maxHeight)
+    when(!known.yMax) {
+      y := y + 1
+      known.remH := known.remH - 1
+      known.hOver := known.remH <= 1
+      known.hLast := known.remH === 2
+      known.yOne := known.yZero
+      known.yMax := y === c.maxHeight - 1
+    } otherwise {
+      known.yOne := False
+    }
+    known.yZero := False
+    known.yTwo := known.yOne
   }
   // `learnt` follows `learntBeat` (the same next value, a separate register for the frame's fields)
   learnt := learntBeat.getAheadValue()
@@ -244,19 +278,23 @@ class FrameTracker(c: FrameConfig) extends Component {
   // The fault counters count a clock late: their increments are registered, so no adder waits for the checks.
   val lineFaults = RegNext(
     Mux(
-      opens,
+      flagSide.opens,
       U(close.countLine, 2 bits) + U(opening.lineFault, 2 bits),
-      U(inFrame && running.lineFault && !lineFaulted, 2 bits)
-    ).andMask(fire)
+      U(flagSide.runs && running.lineFault && !lineFaulted, 2 bits)
+    )
   ) init 0
   val frameFaults = RegNext(
-    Mux(opens, U(close.countFrame, 2 bits) + U(opening.fault, 2 bits), U(inFrame && running.first, 2 bits))
-      .andMask(fire)
+    Mux(
+      flagSide.opens,
+      U(close.countFrame, 2 bits) + U(opening.fault, 2 bits),
+      U(flagSide.runs && running.first, 2 bits)
+    )
   ) init 0
   badLines := badLines + lineFaults.resize(c.counterWidth)
   badFrames := badFrames + frameFaults.resize(c.counterWidth)
 
-  io.tracked.valid := RegNext(fire && (opens || inFrame)) init False
+  val opens = outSide.opens
+  io.tracked.valid := RegNext(opens || outSide.runs) init False
   val t = io.tracked.payload
   t.luma := RegNext(b.luma)
   t.x := RegNext(Mux(opens, U(0, cw bits), x))
@@ -264,7 +302,7 @@ class FrameTracker(c: FrameConfig) extends Component {
   t.active := RegNext(Mux(opens, opening.l && !opening.fault, active && !running.fault)) init False
   t.keyframe := RegNext(Mux(opens, b.keyframe, key))
   t.end.now := RegNext(
-    fire && Mux(opens, opening.endsFrame, inFrame && (running.endsFrame || running.complete))
+    Mux(opens, opening.endsFrame, outSide.runs && (running.endsFrame || running.complete))
   ) init False
   t.end.info.ok := RegNext(Mux(opens, opening.complete && !close.endsFrame, running.complete))
   t.end.info.keyframe := RegNext(Mux(opens && !close.endsFrame, b.keyframe, key))

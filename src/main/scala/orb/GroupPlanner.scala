@@ -16,6 +16,9 @@ case class GroupPlan() extends Bundle {
   val issue = Vec(UInt(GroupPlanner.issueWidth bits), pointsPerGroup)
   val lane = Vec(UInt(GroupPlanner.laneWidth bits), pointsPerGroup)
   val issues = UInt(GroupPlanner.issuesWidth bits)
+
+  /** `issues` == 1, and == 2: the issue stage's decisions read these registers, not a comparison */
+  val single, double = Bool()
 }
 
 /** `DescriptorSchedule.plan` in hardware: the read schedule of a group of tests from its points' banks, in
@@ -125,6 +128,8 @@ class GroupPlanner(bankWidth: Int) extends Component {
       plan.lane(i) := Mux(group.fits, groupLanes(i), Mux(test(t).fits, testLanes(t)(i % 2), alone))
     }
     plan.issues := Mux(group.fits, U(1, issuesWidth bits), testStart.last)
+    plan.single := plan.issues === 1
+    plan.double := plan.issues === 2
     io.plan := step(plan, 3)
   }
 

@@ -349,10 +349,13 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
       for ((r, l) <- reads.zipWithIndex) yield new Area {
         // the lane's own copy of the live descriptor (kept apart, beside the lane's RAMs: one copy would drive all
         // four lanes' comparisons across the chip), copied while the scan is idle as `scan.live` is, in parts, each
-        // by an enable from its own copy of the idle flag (no one flag drives every bit)
+        // by an enable from its own copy of the idle flag (no one flag drives every bit). The flag is a clock late
+        // (from the activity register, not its next value): in a scan's first clock the item register still holds
+        // the feature that started it (it loads the next one a clock later), and the first entry it meets is read
+        // clocks after that.
         val partBits = item.descriptor.getWidth / MatcherConfig.liveDescriptorParts
         val liveParts = (0 until MatcherConfig.liveDescriptorParts).map { i =>
-          val idle = RegNext(activity.getAheadValue() =/= Activity.SCAN) init True
+          val idle = RegNext(activity =/= Activity.SCAN) init True
           idle.addAttribute("preserve")
           val part = Reg(Bits(partBits bits))
           part.addAttribute("preserve")

@@ -126,7 +126,13 @@ object Report {
 
   def timingLine(t: Ecp5Proxy.Timing, goal: Double): String = {
     val seeds =
-      t.runs.map(r => r.fmaxMhz.fold(s"seed ${r.seed} ${r.outcome}")(f => f"seed ${r.seed} $f%.1f")).mkString("; ")
+      t.runs
+        .map(r =>
+          r.fmaxMhz.fold(s"seed ${r.seed} ${r.outcome}")(f =>
+            f"seed ${r.seed} $f%.1f" + (if (r.outcome.contains("in place of")) s" (${r.outcome})" else "")
+          )
+        )
+        .mkString("; ")
     val head = (t.medianMhz, t.minMhz) match {
       case (Some(m), Some(lo)) =>
         f"**$m%.1f MHz** median, $lo%.1f minimum (goal $goal%.0f: ${if (m >= goal) "met" else "not met"})"
