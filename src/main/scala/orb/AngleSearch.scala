@@ -2,6 +2,7 @@ package orb
 
 import spinal.core._
 import spinal.lib._
+import orb.Pipes.keptApart
 import spinal.lib.misc.pipeline._
 
 /** The orientation bin of (m10, m01) without a divider, as `orb.model.OrbModel.angleBin`: fold into the first
@@ -69,8 +70,7 @@ class AngleSearch(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) exten
     val p = at(4 * i + 3)
     // a's copy that feeds only the multipliers (their input registers): loaded with the step's valid, so that it is
     // no twin of the pipeline's own register of a (which would be merged into it and feed more than multipliers)
-    val aForProducts = RegNextWhen(n(fold.A), n.isValid)
-    aForProducts.addAttribute("preserve")
+    val aForProducts = keptApart(RegNextWhen(n(fold.A), n.isValid))
     val LO = p.insert(aForProducts(loWidth - 1 downto 0) * p(TANGENT))
     val HI = p.insert(aForProducts(momentWidth - 1 downto loWidth) * p(TANGENT))
     val s = at(4 * i + 4)

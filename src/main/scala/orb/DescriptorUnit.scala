@@ -2,6 +2,7 @@ package orb
 
 import spinal.core._
 import spinal.lib._
+import orb.Pipes.keptApart
 import orb.model.DescriptorSchedule
 import orb.model.DescriptorSchedule.{groups, lanesPerPort, pointsPerGroup, testsPerGroup}
 
@@ -73,15 +74,12 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
   val ring = new Area {
     // the smoother's beat registered here first (kept apart from the detector's copies of the same position: no row
     // or slot decision hangs on the long wires from it), its row and frame starts compared a clock ahead
-    val s = io.smoothed.stage()
-    s.addAttribute("preserve")
+    val s = keptApart(io.smoothed.stage())
     val startsRow = RegNext(io.smoothed.valid && io.smoothed.pixel.x === 0) init False
 
     /** a copy of `startsRow` (kept apart) for a consumer far from the ring's slot and row registers */
     def startsRowCopy(): Bool = {
-      val r = RegNext(io.smoothed.valid && io.smoothed.pixel.x === 0) init False
-      r.addAttribute("preserve")
-      r
+      keptApart(RegNext(io.smoothed.valid && io.smoothed.pixel.x === 0) init False)
     }
     val startsFrame = RegNext(io.smoothed.valid && io.smoothed.pixel.x === 0 && io.smoothed.pixel.y === 0) init False
     val writes = RegNext(io.smoothed.valid && io.smoothed.pixel.x >= blurRadius) init False
@@ -112,14 +110,10 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
     // address and data, one copy per cluster of four banks (kept apart): no one register drives every bank
     val writeClusters = (banks + 3) / 4
     val writeAddress = Seq.fill(writeClusters) {
-      val a = RegNext((slotNext.lsb ## (s.pixel.x - blurRadius).resize(colWidth)).asUInt)
-      a.addAttribute("preserve")
-      a
+      keptApart(RegNext((slotNext.lsb ## (s.pixel.x - blurRadius).resize(colWidth)).asUInt))
     }
     val writeData = Seq.fill(writeClusters) {
-      val d = RegNext(s.smoothed)
-      d.addAttribute("preserve")
-      d
+      keptApart(RegNext(s.smoothed))
     }
   }
 
@@ -261,9 +255,7 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
     refuse := due && (late || !dataOk) && !decided
     // a copy of `start` per engine slot (kept apart): each loads its slot's corner
     val slotStarts = Seq.fill(2) {
-      val s = RegNext(starts) init False
-      s.addAttribute("preserve")
-      s
+      keptApart(RegNext(starts) init False)
     }
     // the newest patch row (cy + 18) is in the slot of raw row cy + 21, `since + 1` rows back; the oldest 36 more
     // (registered before it is wrapped into the ring: the wrap is formed as a start takes it)
@@ -296,9 +288,8 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
 
     /** the next corner to start takes this slot, and this slot's feature leaves next: the slots take turns, each
       * with its own flags (kept apart), so no one tag drives both slots' registers */
-    val takesNext, leavesNext = RegInit(Bool(!tag))
-    takesNext.addAttribute("preserve")
-    leavesNext.addAttribute("preserve")
+    val takesNext = keptApart(RegInit(Bool(!tag)))
+    val leavesNext = keptApart(RegInit(Bool(!tag)))
 
     /** its patch's oldest row goes at the next row start (`rowsLeft === 1`), or at the one after (`=== 2`):
       * registers beside the count */
@@ -325,9 +316,7 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
     )
     abandon := abandonNext
     def abandonCopy(): Bool = {
-      val a = RegNext(abandonNext) init False
-      a.addAttribute("preserve")
-      a
+      keptApart(RegNext(abandonNext) init False)
     }
     val abandonCopies = Seq.fill(DescriptorUnit.advanceCopies / DescriptorUnit.advanceCopiesPerAbandon)(abandonCopy())
 
@@ -392,9 +381,7 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
       * choosing a part of the descriptor for the output register */
     val outTag = RegInit(False)
     val outTags = Seq.fill(DescriptorUnit.outputParts) {
-      val t = RegInit(False)
-      t.addAttribute("preserve")
-      t
+      keptApart(RegInit(False))
     }
 
     /** A corner starts when `start`; `slotStarts` are copies of it (kept apart), one per slot, each loading that
@@ -429,9 +416,8 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
     }
 
     /** Advances the front end: low while the issue stage repeats a group (registered: see `issue`). */
-    val advance = RegInit(True)
     // kept apart from its copies: it stays beside the issue stage's control, the copies beside what they enable
-    advance.addAttribute("preserve")
+    val advance = keptApart(RegInit(True))
 
     /** copies of `advance` (kept apart), each enabling a share of the front end's registers: no one flag drives
       * them all; made with the issue stage (`issue.advanceCopies`) */
@@ -546,8 +532,7 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
       val table = Arith.SplitTable(rom, pointsPerGroup * 2 * fieldWidth, DescriptorUnit.tableParts)
       // a copy of the group count per part of the table (kept apart)
       val indexCopies = (0 until DescriptorUnit.tableParts).map { _ =>
-        val r = fetch.counter()
-        r.addAttribute("preserve")
+        val r = keptApart(fetch.counter())
         r.resize(log2Up(groups))
       }
       val words = Vec(table.wordsEach(indexCopies).map(step(_)))
@@ -570,9 +555,7 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
       val first = step(fetched)
       // a copy per point (kept apart), each feeding only its point's four multipliers
       val copies = (0 until pointsPerGroup).map { _ =>
-        val r = step(first)
-        r.addAttribute("preserve")
-        r
+        keptApart(step(first))
       }
       val values = copies.map(step(_))
     }
@@ -774,9 +757,7 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
       val advanceCopies = (0 until DescriptorUnit.advanceCopies).map { i =>
         val j = i / DescriptorUnit.advanceCopiesPerAbandon
         val abandonsHere = Mux(loaded.tag, slots(1).abandonCopies(j), slots(0).abandonCopies(j))
-        val a = RegNext(abandonsHere || continues) init True
-        a.addAttribute("preserve")
-        a
+        keptApart(RegNext(abandonsHere || continues) init True)
       }
       val now = (0 until pointsPerGroup).map(i => plan.issue(i) === clock)
       // which point each lane reads now, registered with the points (the lanes' choice comes from registers)
@@ -922,9 +903,7 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
       // own (kept apart), each enabling a part of the slot's descriptor
       for (s <- slots) {
         val enables = Seq.fill(1 + DescriptorUnit.collectCopies) {
-          val e = RegNext(r.valid && r.last && r.tag === Bool(s.tag) && !abandons(r.tag)) init False
-          e.addAttribute("preserve")
-          e
+          keptApart(RegNext(r.valid && r.last && r.tag === Bool(s.tag) && !abandons(r.tag)) init False)
         }
         s.collected(results.asBits, enables)
       }
@@ -998,9 +977,7 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
       full := False
     }
     val loads = Seq.fill(DescriptorUnit.outputParts) {
-      val l = RegNext(!full.getAheadValue()) init True
-      l.addAttribute("preserve")
-      l
+      keptApart(RegNext(!full.getAheadValue()) init True)
     }
     when(loads.head) {
       payload.x := output.x
@@ -1038,7 +1015,7 @@ object DescriptorUnit {
     val out = Stream(cloneOf(in.payload))
     val valid = RegInit(False)
     val payload = Reg(cloneOf(in.payload))
-    kept(payload).foreach(_.addAttribute("preserve"))
+    kept(payload).foreach(keptApart(_))
     when(in.valid) {
       valid := True
     }

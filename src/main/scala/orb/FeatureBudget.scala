@@ -2,6 +2,7 @@ package orb
 
 import spinal.core._
 import spinal.lib._
+import orb.Pipes.keptApart
 
 /** The feature budget between the corner detector and the orientation unit: which corners become features
   * (`BudgetConfig` states the rule, `orb.model.BudgetModel` is its specification).
@@ -122,16 +123,12 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
 
       /** the corner and its rank, one copy per bank (kept apart): each feeds the comparisons of its bank's lists */
       val corners = (0 until 2).map { _ =>
-        val r = RegNext(ranked.corner.payload)
-        r.addAttribute("preserve")
-        r
+        keptApart(RegNext(ranked.corner.payload))
       }
 
       /** its rank, one copy per list (kept apart): each feeds the comparisons of one list */
       val ranks = lists.map { _ =>
-        val r = RegNext(ranked.rank)
-        r.addAttribute("preserve")
-        r
+        keptApart(RegNext(ranked.rank))
       }
 
       /** its list, one-hot over (bank, cell) */
@@ -154,15 +151,11 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
 
         /** the places in use, the list's own copy (kept apart: one register would reach every list) */
         val inUse = (0 until k).map { i =>
-          val r = RegNext(inList(i)) init False
-          r.addAttribute("preserve")
-          r
+          keptApart(RegNext(inList(i)) init False)
         }
         // two copies (kept apart): one for whether place i stays, one for whether place i + 1 takes the corner
         val aheads = Seq.fill(2)(Vec((0 until k).map { i =>
-          val a = RegNext(list(i).valid && list(i).rank >= rank && inUse(i))
-          a.addAttribute("preserve")
-          a
+          keptApart(RegNext(list(i).valid && list(i).rank >= rank && inUse(i)))
         }))
         val stays = aheads(0)
         val takesAfter = aheads(1)
@@ -172,9 +165,7 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
           * emission reads, and the rest, which the comparisons read): no one enable drives a whole list or entry */
         val writes = (0 until k).map { _ =>
           Seq.fill(2) {
-            val w = RegNext(arriving.selects(l)) init False
-            w.addAttribute("preserve")
-            w
+            keptApart(RegNext(arriving.selects(l)) init False)
           }
         }
         val fresh = Entry()
@@ -286,9 +277,7 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
     // empties its cell's entry
     val places = (0 until 2).map { _ =>
       (0 until cells).map { cell =>
-        val r = RegNext(choice.place(cell * k, k bits))
-        r.addAttribute("preserve")
-        r
+        keptApart(RegNext(choice.place(cell * k, k bits)))
       }
     }
     // the choice's register levels, then the score picked by its place into a register: the winner leaves after
@@ -411,11 +400,10 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
     /** The frame end fires: its own copies (kept apart) of `pending`, of the quiet test and of what entered since,
       * each copy beside what it drives (the walk's state, a share of the banks), so no one flag spans the block. */
     class Firing extends Area {
-      val waiting = Reg(Bool()) init False
-      val quiet = RegNext(quiets) init False
-      val entering = RegNext(io.corners.valid) init False
-      val triggered = RegNext(emission.triggers) init False
-      for (r <- Seq(waiting, quiet, entering, triggered)) r.addAttribute("preserve")
+      val waiting = keptApart(Reg(Bool()) init False)
+      val quiet = keptApart(RegNext(quiets) init False)
+      val entering = keptApart(RegNext(io.corners.valid) init False)
+      val triggered = keptApart(RegNext(emission.triggers) init False)
       val fire = waiting && quiet && !entering && !triggered
       when(io.frameEnds.valid) { waiting := True }
       when(fire) { waiting := False }

@@ -2,6 +2,7 @@ package orb
 
 import spinal.core._
 import spinal.lib._
+import orb.Pipes.keptApart
 
 /** Positions every pixel, learns the frame geometry and polices it; see `orb.model.FrameTrackerModel` for the
   * rules (the model is the specification, this is a register-for-register mirror). The pixel beat is registered on
@@ -70,10 +71,8 @@ class FrameTracker(c: FrameConfig) extends Component {
     * `opens` a start of frame, `runs` any other beat inside a frame (a frame is entered at the first start of
     * frame and never left), so neither waits for the input register's valid or `inFrame`. */
   class BeatKind extends Area {
-    val opens = RegNext(io.pixels.valid && io.pixels.sof) init False
-    val runs = RegNext(io.pixels.valid && !io.pixels.sof && (inFrame || starts)) init False
-    opens.addAttribute("preserve")
-    runs.addAttribute("preserve")
+    val opens = keptApart(RegNext(io.pixels.valid && io.pixels.sof) init False)
+    val runs = keptApart(RegNext(io.pixels.valid && !io.pixels.sof && (inFrame || starts)) init False)
   }
 
   /** the width side (x, the line's width), the height side (y), the frame's flags and counts, the output */
@@ -84,8 +83,8 @@ class FrameTracker(c: FrameConfig) extends Component {
     * next values in both cases below, so a start of frame decides from flip-flops; `learnt` loads the frame's
     * fields, `learntBeat` (a copy kept apart) the beat's. Before the first start of frame nothing is locked, so
     * at a start `learnt` is also the new frame's `locked`. */
-  val learnt, learntBeat = Reg(Bool()) init False
-  learntBeat.addAttribute("preserve")
+  val learnt = Reg(Bool()) init False
+  val learntBeat = keptApart(Reg(Bool()) init False)
 
   /** A start of frame closes the frame before it (the same decisions in both copies' terms). */
   val close = new Area {

@@ -2,6 +2,7 @@ package orb
 
 import spinal.core._
 import spinal.lib._
+import orb.Pipes.keptApart
 
 /** Keyframe store and brute-force Hamming matcher, as `orb.model.MatcherModel`.
   *
@@ -281,9 +282,7 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
     for ((lane, l) <- lanes.zipWithIndex) yield new Area {
       // each lane's own copies (kept apart: one register would drive every RAM of the store)
       def address(scanAddr: UInt): UInt = {
-        val a = RegNext(Mux(rescan.busy, rescan.group.resize(groupWidth), Mux(sweep.busy, sweep.addr, scanAddr)))
-        a.addAttribute("preserve")
-        a
+        keptApart(RegNext(Mux(rescan.busy, rescan.group.resize(groupWidth), Mux(sweep.busy, sweep.addr, scanAddr))))
       }
       val addr = address(scan.readAddr)
       val crossAddr = address(scanCrossAddr)
@@ -355,10 +354,8 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
         // clocks after that.
         val partBits = item.descriptor.getWidth / MatcherConfig.liveDescriptorParts
         val liveParts = (0 until MatcherConfig.liveDescriptorParts).map { i =>
-          val idle = RegNext(activity =/= Activity.SCAN) init True
-          idle.addAttribute("preserve")
-          val part = Reg(Bits(partBits bits))
-          part.addAttribute("preserve")
+          val idle = keptApart(RegNext(activity =/= Activity.SCAN) init True)
+          val part = keptApart(Reg(Bits(partBits bits)))
           when(idle) {
             part := item.descriptor(i * partBits, partBits bits)
           }

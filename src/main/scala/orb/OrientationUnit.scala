@@ -2,6 +2,7 @@ package orb
 
 import spinal.core._
 import spinal.lib._
+import orb.Pipes.keptApart
 import Arith._
 
 /** Orientation by intensity centroid (OpenCV's IC_Angle) without storing any patch or keeping any per-corner state
@@ -95,9 +96,7 @@ class OrientationUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, c
 
     /** each group of `chainGroup` taps advances by its own copy of the beat's valid (kept apart) */
     val advance = (0 until (taps + chainGroup - 1) / chainGroup).map { _ =>
-      val a = RegNext(sums.valid) init False
-      a.addAttribute("preserve")
-      a
+      keptApart(RegNext(sums.valid) init False)
     }
     def heightOf(j: Int): Int = sums.heights.indexOf(vmax((R - j).abs))
     // each tap as wide as the most it can hold: the columns from it to the chain's end

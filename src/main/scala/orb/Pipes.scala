@@ -3,8 +3,16 @@ package orb
 import spinal.core._
 import spinal.lib._
 
-/** Stream registers shaped for timing. */
+/** Registers shaped for timing. */
 object Pipes {
+
+  /** `r`, a register, kept apart: the Verilog attribute `preserve` (which Quartus honours, and the proxy's Yosys
+    * flows too) stops synthesis from merging it with an identical register, so each copy of a value stays beside
+    * the logic it drives. */
+  def keptApart[T <: Data](r: T): T = {
+    r.addAttribute("preserve")
+    r
+  }
 
   /** `in.halfPipe()` (a beat every other clock, the ready the valid register's complement) whose payload is loaded in
     * `parts` slices, each by its own copy of the "empty" flag (kept apart): no one register enables every bit of a
@@ -24,8 +32,7 @@ object Pipes {
     val partWidth = (width + parts - 1) / parts
     val stored = Reg(Bits(width bits))
     for (p <- 0 until parts if p * partWidth < width) {
-      val empty = RegNext(!valid.getAheadValue()) init True
-      empty.addAttribute("preserve")
+      val empty = keptApart(RegNext(!valid.getAheadValue()) init True)
       val slice = (width - p * partWidth) min partWidth
       when(empty) {
         stored(p * partWidth, slice bits) := bits(p * partWidth, slice bits)

@@ -2,6 +2,7 @@ package orb
 
 import spinal.core._
 import spinal.lib._
+import orb.Pipes.keptApart
 
 /** @param rows       rows seen at once: the current one plus `rows - 1` stored ones
   * @param maxWidth   pixels per line, the depth of the memory
@@ -44,10 +45,8 @@ class RowWindow(val c: RowWindowConfig) extends Area {
     val stores = fire && x < c.maxWidth
     for ((ram, rs) <- rams.zip(c.ramRows)) {
       // each RAM's write address and enable delayed in registers of its own (kept apart)
-      val fireD = Delay(stores, RowWindow.latency, init = False)
-      val xD = Delay(x.resize(c.addrWidth), RowWindow.latency)
-      fireD.addAttribute("preserve")
-      xD.addAttribute("preserve")
+      val fireD = keptApart(Delay(stores, RowWindow.latency, init = False))
+      val xD = keptApart(Delay(x.resize(c.addrWidth), RowWindow.latency))
       // element r of the column goes one row down: the RAM's rows take the column's elements rs (the newest in the
       // low bits)
       ram.write(xD, Vec(rs.map(r => col(r))).asBits, fireD)
