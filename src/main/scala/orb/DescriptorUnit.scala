@@ -226,7 +226,7 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
     // them; its readiness from two registers: no decision reaches the read pointer), then the lookups, the parts'
     // pick and the quadrant's swap, each step with its valid and ready registered (no chain of readies from the
     // decision back to the queue): a step passes a corner every other clock, and corners are an engine's run apart
-    val indexedHead = DescriptorUnit.halfPipeKeeping(ready.io.pop.m2sPipe().map(indexed))(_.within.toSeq)
+    val indexedHead = Pipes.halfPipeKeeping(ready.io.pop.m2sPipe().map(indexed))(_.within.toSeq)
     val head = indexedHead.map(lookupCosSin).halfPipe().map(pickCosSin).halfPipe().map(prepare).halfPipe()
     val c = head.payload.item
     // rows since the patch was complete (negative: not yet), for the head of the clock before: it is the head's
@@ -1008,28 +1008,6 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
 }
 
 object DescriptorUnit {
-
-  /** `in.halfPipe()` (a beat every other clock, the ready from the valid register) whose payload fields `kept` stay
-    * apart as registers (copies of one value that drive different logic) */
-  def halfPipeKeeping[T <: Data](in: Stream[T])(kept: T => Seq[Data]): Stream[T] = {
-    val out = Stream(cloneOf(in.payload))
-    val valid = RegInit(False)
-    val payload = Reg(cloneOf(in.payload))
-    kept(payload).foreach(keptApart(_))
-    when(in.valid) {
-      valid := True
-    }
-    when(out.fire) {
-      valid := False
-    }
-    when(!valid) {
-      payload := in.payload
-    }
-    in.ready := !valid
-    out.valid := valid
-    out.payload := payload
-    out
-  }
 
   /** Clocks from a corner's release (its row start), or from the engine becoming free for it, to the engine
     * starting it, at most: the rows since, the row test and the engine's freedom are registered, and a row start in

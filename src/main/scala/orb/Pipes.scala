@@ -43,4 +43,27 @@ object Pipes {
     out.payload.assignFromBits(stored)
     out
   }
+
+  /** `in.halfPipe()` (a beat every other clock, the ready from the valid register) whose payload fields `kept` stay
+    * apart as registers (copies of one value that drive different logic) */
+  def halfPipeKeeping[T <: Data](in: Stream[T])(kept: T => Seq[Data]): Stream[T] = {
+    val out = Stream(cloneOf(in.payload))
+    val valid = RegInit(False)
+    val payload = Reg(cloneOf(in.payload))
+    kept(payload).foreach(keptApart(_))
+    when(in.valid) {
+      valid := True
+    }
+    when(out.fire) {
+      valid := False
+    }
+    when(!valid) {
+      payload := in.payload
+    }
+    in.ready := !valid
+    out.valid := valid
+    out.payload := payload
+    out
+  }
+
 }
