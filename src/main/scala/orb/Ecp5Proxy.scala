@@ -163,7 +163,7 @@ object Ecp5Proxy {
   val replacementSeedOffset: Int = 100
 
   /** nextpnr stopped on the reset's arc from its flip-flop (`reset_q`) to the global buffer (the wrapper's DCCA) */
-  private def resetArcFailed(work: File, seed: Int): Boolean = {
+  def resetArcFailed(work: File, seed: Int): Boolean = {
     val log = new File(work, s"nextpnr_seed$seed.log")
     log.isFile && {
       val src = scala.io.Source.fromFile(log)

@@ -137,8 +137,6 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
       selects.foreach(_.init(False))
     }
 
-    /** the list places in use in this line length, a register (the length changes only between frames) */
-    val inList = Vec((0 until k).map(i => RegNext(U(i) < perCell.now) init False))
     val compared = new Area {
       val valid = RegNext(arriving.valid) init False
       val corners = arriving.corners.map(RegNext(_))
@@ -149,10 +147,9 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
         val list = banks(bank)(cell)
         val rank = arriving.ranks(l)
 
-        /** the places in use, the list's own copy (kept apart: one register would reach every list) */
-        val inUse = (0 until k).map { i =>
-          keptApart(RegNext(inList(i)) init False)
-        }
+        /** the list places in use in this line length (it changes only between frames), registers of the list's
+          * own (kept apart: one register would reach every list) */
+        val inUse = (0 until k).map(i => keptApart(RegNext(U(i) < perCell.now) init False))
         // two copies (kept apart): one for whether place i stays, one for whether place i + 1 takes the corner
         val aheads = Seq.fill(2)(Vec((0 until k).map { i =>
           keptApart(RegNext(list(i).valid && list(i).rank >= rank && inUse(i)))

@@ -63,6 +63,22 @@ class ReportSpec extends AnyFunSuite {
       Set("io_a" -> 16, "io_b" -> 16, "io_product" -> 32, "clk" -> 1, "reset" -> 1))
   }
 
+  test("a seed whose reset arc to its global buffer does not route is told from any other failure") {
+    val work = new File("target/report-test/reset-arc")
+    work.mkdirs()
+    def logOf(seed: Int, lines: String*): Unit =
+      Report.write(new File(work, s"nextpnr_seed$seed.log"), lines.mkString("", "\n", "\n"))
+    logOf(
+      1,
+      "Info: Running main router loop...",
+      "ERROR: Failed to route arc 0.0 of net 'reset_q', from X29/Y2/Q0_SLICE to X0/Y0/G_CLKI_TDCC0."
+    )
+    logOf(2, "ERROR: Failed to route arc 3.0 of net 'dut.core.x', from X1/Y1/Q0_SLICE to X2/Y2/A0_SLICE.")
+    assert(Ecp5Proxy.resetArcFailed(work, 1))
+    assert(!Ecp5Proxy.resetArcFailed(work, 2), "another net's arc is a real failure")
+    assert(!Ecp5Proxy.resetArcFailed(work, 3), "no log: no replacement")
+  }
+
   test("an unroutable run names the congested blocks from router2's heat maps") {
     val work = new File("target/report-test/congestion")
     Option(work.listFiles()).foreach(_.foreach(_.delete()))
