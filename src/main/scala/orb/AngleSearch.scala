@@ -84,6 +84,9 @@ class AngleSearch(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) exten
     val swapped = at(4 * steps.size + 2)
     val count = swapped(counts.last)
     val Q = swapped.insert(Mux(swapped(fold.SWAP), U(2 * m, countWidth + 1 bits) - count, count.resize(countWidth + 1)))
+    // |m10| is a, or b after a swap; |m01| the other: picked here, so that the next node only signs them
+    val ABS10 = swapped.insert(Mux(swapped(fold.SWAP), swapped(fold.B), swapped(fold.A)))
+    val ABS01 = swapped.insert(Mux(swapped(fold.SWAP), swapped(fold.A), swapped(fold.B)))
     val u = at(4 * steps.size + 3)
     val q = u(Q)
     val n = d.angleBins
@@ -95,13 +98,12 @@ class AngleSearch(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) exten
       .elsewhen(!right && !up) { bin := (U(n / 2, d.binWidth + 1 bits) + q).resized }
       .otherwise { bin := Mux(q === 0, U(0, d.binWidth + 1 bits), (U(n, d.binWidth + 1 bits) - q).resized) }
     val BIN = u.insert(bin.resize(d.binWidth))
-    // |m10| is a, or b after a swap; |m01| the other
     def moment(magnitude: UInt, negative: Bool): SInt = {
       val m = magnitude.intoSInt.resize(momentWidth)
       Mux(negative, -m, m)
     }
-    val M10 = u.insert(moment(Mux(u(fold.SWAP), u(fold.B), u(fold.A)), u(beside.M10_NEGATIVE)))
-    val M01 = u.insert(moment(Mux(u(fold.SWAP), u(fold.A), u(fold.B)), u(beside.M01_NEGATIVE)))
+    val M10 = u.insert(moment(u(ABS10), u(beside.M10_NEGATIVE)))
+    val M01 = u.insert(moment(u(ABS01), u(beside.M01_NEGATIVE)))
   }
   val out = at(4 * steps.size + 4)
   io.output.valid := out.isValid

@@ -49,6 +49,10 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
   val rows = d.smoothedRows
   val banks = d.smoothedBanks
   val slotWidth = log2Up(rows)
+
+  /** entries of the rows' history, by the row count's low bits: a power of two (the count wraps at one) */
+  val historyRows = 1 << log2Up(d.slackRows max 2)
+  require(historyRows <= (1 << f.rowTagWidth), "the rows' history is kept by the row count's low bits")
   val bankWidth = log2Up(banks)
   val colWidth = f.addrWidth
   val addrWidth = colWidth + 1
@@ -92,13 +96,23 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
     val rowStart = RegNext(startsRow) init False
     // For the last rows: was the first pixel of the row processed, and in which frame. A corner's rows are good
     // iff the first pixel of its row cy + 22 was processed in its own frame (no fault before it): the model's rule.
-    val history = Vec.fill(d.slackRows)(Reg(RowInfo()))
+    // Kept by the row's count (its low bits name the entry; a one-hot pointer names the next row's), so a corner
+    // finds its row's entry by its own start row, with no difference of rows on the way: an entry holds its row
+    // until `historyRows` rows later, and a corner reads it only within `slackRows` rows.
+    val history = Vec.fill(historyRows)(Reg(RowInfo()))
     history.foreach(_.active.init(False))
     val thisRow = RowInfo()
     thisRow.active := s.pixel.active
     thisRow.frame := clock.frameNext
+    // the entry of the row count after the next row start (the count after reset is 0: the first start makes it 1)
+    val historyNext = Reg(Bits(historyRows bits)) init B(BigInt(1) << 1, historyRows bits)
     when(startsRow) {
-      history := Vec(thisRow +: history.init)
+      historyNext := historyNext.rotateLeft(1)
+      for (i <- 0 until historyRows) {
+        when(historyNext(i)) {
+          history(i) := thisRow
+        }
+      }
     }
     // the bank of the slot, one-hot beside it: it moves on when a row start leaves the bank's last slot
     val bank = Reg(Bits(banks bits)) init 1
@@ -238,9 +252,10 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
     // the tests on the rows since, registered beside them: the start decision only combines registers
     val early = RegNext(difference.msb) init True
     val late = RegNext(difference.asUInt >= d.slackRows) init False
-    // each row's test against the head's frame side by side with the difference, then the one it names
+    // each row's test against the head's frame, then the one its start row names (the same entry as the row
+    // `difference` rows back whenever that is within the slack: otherwise `early` or `late` decides)
     val goodRows = Vec(ring.history.map(row => row.active && row.frame === c.frameTag))
-    val dataOk = RegNext(goodRows(difference.asUInt.resize(log2Up(d.slackRows max 2)))) init False
+    val dataOk = RegNext(goodRows(c.startRow.resize(log2Up(historyRows)))) init False
     val due = current && !early
     // the engine free for a corner, a clock late (never right after a start, which takes the slot)
     val free = Reg(Bool()) init False

@@ -249,7 +249,10 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
         * choice */
       val place = Bits(cells * k bits)
     }
-    def earlier(l: Candidate, r: Candidate): Candidate = Mux(l.valid && (!r.valid || l.key <= r.key), l, r)
+    // an empty entry sorts after every full one: its key's top bit (one comparison, no logic around it; of two
+    // empty entries either is chosen, and an empty choice emits nothing)
+    def earlier(l: Candidate, r: Candidate): Candidate =
+      Mux((!l.valid ## l.key).asUInt <= (!r.valid ## r.key).asUInt, l, r)
 
     /** the first of `cs` (two or more) by levels of comparisons, a register after each: the last level's input */
     def lastLevelOf(cs: Seq[Candidate]): Candidate = {

@@ -439,17 +439,22 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
     val ratioSecond = RegNext((p.ratio * a.second).resize(distanceWidth + m.ratioFracBits + 1))
     val ratioOk =
       !p.ratioTest || ((a.best.distance << m.ratioFracBits).resize(distanceWidth + m.ratioFracBits + 1) < ratioSecond)
-    val accepted = done && a.best.distance <= p.hammingThreshold && ratioOk
+    // everything but the ratio decided a clock early, in registers: the best is final from the clock before `done`
+    val withinThreshold = RegNext(a.best.distance <= p.hammingThreshold) init False
+    val accepted = done && withinThreshold && ratioOk
     when(done || emptyDone) {
       activity := Activity.IDLE
     }
     // The decision registered: the mark's write and the correspondence's push leave a clock later (the next
     // feature's scan reads nothing for several clocks, and the live position stays until it starts).
-    val mark = accepted && p.crossCheck && a.best.wins
     val bestLane = a.best.index.resize(log2Up(P) max 1)
 
-    /** per lane: its entry is marked (the lane decided with the mark, no comparison behind the register) */
-    val markLanes = (0 until P).map(l => RegNext(mark && laneIs(bestLane, l)) init False)
+    /** per lane: its entry is marked (the lane, the threshold and the take-over decided a clock ahead, beside the
+      * best; only the ratio and `done` after those registers) */
+    val markLanes = (0 until P).map { l =>
+      val marks = RegNext(p.crossCheck && a.best.wins && laneIs(bestLane, l) && a.best.distance <= p.hammingThreshold)
+      RegNext(done && ratioOk && marks) init False
+    }
     val emit = RegNext(accepted && !p.crossCheck) init False
     val markAddr = RegNext(groupOf(a.best.index, groupWidth))
     val markValue = Cross()
@@ -486,7 +491,8 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
   for ((lane, l) <- lanes.zipWithIndex) {
     def here(sel: UInt): Bool = laneIs(sel, l)
     val loadHere = load.write && here(load.lane)
-    lane.store.write(RegNext(load.addr), RegNext(load.entry), RegNext(loadHere) init False)
+    // the address a register per lane (kept apart: one register would drive every RAM of the store)
+    lane.store.write(keptApart(RegNext(load.addr)), RegNext(load.entry), RegNext(loadHere) init False)
     // the score word a clock later than the entry, its decision registered before the selection below (the rescan
     // that reads it starts later still)
     val scoreHere = RegNext(loadHere) init False

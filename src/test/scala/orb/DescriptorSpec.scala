@@ -54,11 +54,14 @@ class DescriptorSpec extends AnyFunSuite {
     check("feat-graf1", image("graf1.png").crop(100, 100, 320, 200), Blanking.camera)
   }
 
-  /** The photographs (not the disparity map). */
-  lazy val photos: Seq[String] = Option(new java.io.File("data").listFiles()).toSeq.flatten.map(_.getName)
-    .filter(n => n.endsWith(".png") && !n.contains("disp")).sorted
-  test("every photograph in data/, full size, no blanking at all: every selected corner gets its descriptor") {
-    assert(photos.size >= 14)
+  /** One photograph of every source in data/ (the first of a pair; the suite's time allows no more at full size).
+    * Not here: graf1 (OrbCoreSpec, OrbTopSpec at full size), the aloe pair (the threshold-0 case below), and
+    * starry_night, which OrbTopSpec and FeatureBudgetSpec run at full size with no blanking beside baboon. */
+  val photos: Seq[String] =
+    Seq("aero1.png", "baboon.png", "basketball1.png", "box.png", "leuvenA.png", "rubberwhale1.png")
+  test(
+    "a photograph of every source in data/, full size, no blanking at all: every selected corner gets its descriptor"
+  ) {
     val runs = photos.flatMap(name => check(s"feat-$name", image(name), Blanking.none).engineRuns)
     // dense photographs keep the engine busy: corners start behind the one before (the overlap the bound counts on)
     assert(
