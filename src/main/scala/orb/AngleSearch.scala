@@ -7,7 +7,7 @@ import spinal.lib.misc.pipeline._
 
 /** The orientation bin of (m10, m01) without a divider, as `orb.model.OrbModel.angleBin`: fold into the first
   * octant (signs, swap so that b <= a), count the bin boundaries below the angle with a binary search, one
-  * comparison b 2^F >= a T_j per step, unfold. One corner per clock; latency `4 steps + 4`: a step looks up the
+  * comparison b 2^F >= a T_j per step, unfold. One corner per clock; latency `4 steps + 5`: a step looks up the
   * tangent it tries (into a register), multiplies a's two parts by it in two multiplier blocks (plain registers on
   * both sides of each product), adds the partial products and compares. */
 class AngleSearch(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) extends Component {
@@ -44,50 +44,55 @@ class AngleSearch(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) exten
     val M01_NEGATIVE = n.insert(n(IN).m01.sign)
   }
 
-  // the magnitudes at node 0, their comparison and the swap at node 1
+  // the magnitudes at node 0, their comparison at node 1, the swap it decides at node 2 (a register between them)
   val fold = new Area {
     val AX = at(0).insert(at(0)(IN).m10.abs)
     val AY = at(0).insert(at(0)(IN).m01.abs)
-    val n = at(1)
-    val ax = n(AX)
-    val ay = n(AY)
-    val swap = ay > ax
-    val SWAP = n.insert(swap)
-    val A = n.insert(Mux(swap, ay, ax))
-    val B = n.insert(Mux(swap, ax, ay))
+    val SWAP = at(1).insert(at(1)(AY) > at(1)(AX))
+    val n = at(2)
+    val A = n.insert(Mux(n(SWAP), n(AY), n(AX)))
+    val B = n.insert(Mux(n(SWAP), n(AX), n(AY)))
   }
-  // Step i tries to add `step` to the count of the steps before it: the T_j it tries at node 4i + 2, the partial
-  // products of the registered a and T_j at 4i + 3, their sum at 4i + 4, the comparison at 4i + 5.
+
+  /** the node of the first step's lookup */
+  val first = 3
+  // Step i tries to add `step` to the count of the steps before it: the T_j it tries at node first + 4i, the partial
+  // products of the registered a and T_j a node later, their sum the node after, the comparison the next.
   val counts = scala.collection.mutable.ArrayBuffer[Payload[UInt]]()
   for ((step, i) <- steps.zipWithIndex) {
-    val n = at(4 * i + 2)
+    val n = at(first + 4 * i)
     val before = if (i == 0) U(0, countWidth bits) else n(counts(i - 1))
     val BEFORE = n.insert(before)
-    val idx = (before +^ (step - 1)).resize(countWidth + 1)
-    val table = Vec(tangents.map(t => U(t, tWidth bits)))
-    val TRY = n.insert(idx < m && n(fold.A) =/= 0)
-    val TANGENT = n.insert(table(idx.resize(log2Up(m max 2))))
-    val p = at(4 * i + 3)
+    // `before` is a sum of larger steps (powers of two), a multiple of 2 step: the index it tries, before + step - 1,
+    // is looked up by before / step in a table of this step's own indices (no adder before the lookup)
+    val shift = log2Up(step)
+    val quotient = before(countWidth - 1 downto shift)
+    val tried = (0 until (1 << quotient.getWidth)).map(q => q * step + step - 1)
+    val table = Vec(tried.map(j => U(if (j < m) tangents(j) else 0L, tWidth bits)))
+    val inRange = Vec(tried.map(j => Bool(j < m)))
+    val TRY = n.insert(inRange(quotient) && n(fold.A) =/= 0)
+    val TANGENT = n.insert(table(quotient))
+    val p = at(first + 4 * i + 1)
     // a's copy that feeds only the multipliers (their input registers): loaded with the step's valid, so that it is
     // no twin of the pipeline's own register of a (which would be merged into it and feed more than multipliers)
     val aForProducts = keptApart(RegNextWhen(n(fold.A), n.isValid))
     val LO = p.insert(aForProducts(loWidth - 1 downto 0) * p(TANGENT))
     val HI = p.insert(aForProducts(momentWidth - 1 downto loWidth) * p(TANGENT))
-    val s = at(4 * i + 4)
+    val s = at(first + 4 * i + 2)
     val PRODUCT = s.insert((s(HI) << loWidth).resize(momentWidth + tWidth) + s(LO).resize(momentWidth + tWidth))
-    val c = at(4 * i + 5)
+    val c = at(first + 4 * i + 3)
     val take = c(TRY) && ((c(fold.B).resize(momentWidth + d.tanFracBits) |<< d.tanFracBits) >= c(PRODUCT))
     counts += c.insert(Mux(take, c(BEFORE) + step, c(BEFORE)))
   }
   // the count unfolded over the octant's swap, registered, then over the quadrant's signs
   val unfold = new Area {
-    val swapped = at(4 * steps.size + 2)
+    val swapped = at(first + 4 * steps.size)
     val count = swapped(counts.last)
     val Q = swapped.insert(Mux(swapped(fold.SWAP), U(2 * m, countWidth + 1 bits) - count, count.resize(countWidth + 1)))
     // |m10| is a, or b after a swap; |m01| the other: picked here, so that the next node only signs them
     val ABS10 = swapped.insert(Mux(swapped(fold.SWAP), swapped(fold.B), swapped(fold.A)))
     val ABS01 = swapped.insert(Mux(swapped(fold.SWAP), swapped(fold.A), swapped(fold.B)))
-    val u = at(4 * steps.size + 3)
+    val u = at(first + 4 * steps.size + 1)
     val q = u(Q)
     val n = d.angleBins
     val bin = UInt(d.binWidth + 1 bits)
@@ -105,7 +110,7 @@ class AngleSearch(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) exten
     val M10 = u.insert(moment(u(ABS10), u(beside.M10_NEGATIVE)))
     val M01 = u.insert(moment(u(ABS01), u(beside.M01_NEGATIVE)))
   }
-  val out = at(4 * steps.size + 4)
+  val out = at(first + 4 * steps.size + 2)
   io.output.valid := out.isValid
   io.output.corner := out(beside.CORNER)
   io.output.m10 := out(unfold.M10)

@@ -86,7 +86,6 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
       keptApart(RegNext(io.smoothed.valid && io.smoothed.pixel.x === 0) init False)
     }
     val startsFrame = RegNext(io.smoothed.valid && io.smoothed.pixel.x === 0 && io.smoothed.pixel.y === 0) init False
-    val writes = RegNext(io.smoothed.valid && io.smoothed.pixel.x >= blurRadius) init False
     val slot = Reg(UInt(slotWidth bits)) init 0
     val slotNext = Mux(startsRow, nextSlot(slot), slot)
     slot := slotNext
@@ -114,15 +113,23 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
         }
       }
     }
-    // the bank of the slot, one-hot beside it: it moves on when a row start leaves the bank's last slot
-    val bank = Reg(Bits(banks bits)) init 1
-    val leavesBank = RegNext(slotNext.lsb || slotNext === rows - 1) init False
-    val bankNext = Mux(startsRowCopy() && leavesBank, bank.rotateLeft(1), bank)
-    bank := bankNext
-    // the newest beat's write, decoded for the banks
-    val writeBank = RegNext(Mux(writes, bankNext, B(0, banks bits))) init 0
-    // address and data, one copy per cluster of four banks (kept apart): no one register drives every bank
+    // The bank of the slot, one-hot beside it: it moves on when a row start leaves the bank's last slot. Each
+    // cluster of four banks moves its part of it and decodes the newest beat's write for its banks with its own
+    // copies of the flags (kept apart): no one register drives every bank.
     val writeClusters = (banks + 3) / 4
+    val bank = Reg(Bits(banks bits)) init 1
+    val leavesBankNext = slotNext.lsb || slotNext === rows - 1
+    val writeBank = Bits(banks bits)
+    for (k <- 0 until writeClusters) {
+      val moves = startsRowCopy() && keptApart(RegNext(leavesBankNext) init False)
+      val writesHere = keptApart(RegNext(io.smoothed.valid && io.smoothed.pixel.x >= blurRadius) init False)
+      for (b <- 4 * k until (4 * k + 4 min banks)) {
+        val next = Mux(moves, bank((b + banks - 1) % banks), bank(b))
+        bank(b) := next
+        writeBank(b) := RegNext(writesHere && next) init False
+      }
+    }
+    // address and data, one copy per cluster of four banks (kept apart): no one register drives every bank
     val writeAddress = Seq.fill(writeClusters) {
       keptApart(RegNext((slotNext.lsb ## (s.pixel.x - blurRadius).resize(colWidth)).asUInt))
     }

@@ -86,12 +86,14 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
       (lead @@ frac).resize(width)
     }
 
-  /** Corners kept per cell in this frame's line length: `OrbConfig.perCellFor`, from its steps. */
+  /** Corners kept per cell in this frame's line length: `OrbConfig.perCellFor`, from its steps, into a register
+    * (the width changes only between frames, and comes from the frame tracker, apart from the lists) */
   val perCell = new Area {
     val width = io.geometry.width
-    val now = UInt(log2Up(k + 1) bits)
-    now := 0
-    for ((from, n) <- cfg.perCellSteps) when(width >= from) { now := n }
+    val fromSteps = UInt(log2Up(k + 1) bits)
+    fromSteps := 0
+    for ((from, n) <- cfg.perCellSteps) when(width >= from) { fromSteps := n }
+    val now = RegNext(fromSteps) init 0
   }
 
   val banks = Vec.fill(2)(Vec.fill(cells)(Vec.fill(k)(Reg(Entry()))))
@@ -148,7 +150,7 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
         val rank = arriving.ranks(l)
 
         /** the list places in use in this line length (it changes only between frames), registers of the list's
-          * own (kept apart: one register would reach every list) */
+          * own (kept apart: one register would reach every list), from the registered count per cell */
         val inUse = (0 until k).map(i => keptApart(RegNext(U(i) < perCell.now) init False))
         // two copies (kept apart): one for whether place i stays, one for whether place i + 1 takes the corner
         val aheads = Seq.fill(2)(Vec((0 until k).map { i =>
@@ -235,7 +237,16 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
     // later, which shares it, gets its first corner (`OrbConfig.budgetService` checks that the emission is that
     // fast). The first choice starts a clock after the trigger, when the bank is chosen.
     val choosing = RegNext(trigger) init False
-    val lists = banks(bank)
+    // the band's lists, each cell's picked from its bank by a copy of the bank register of its own (kept apart: one
+    // register would choose every entry)
+    val bankOfCell = (0 until cells).map { _ =>
+      val copy = keptApart(Reg(UInt(1 bits)) init 0)
+      when(trigger) {
+        copy := band(0 downto 0)
+      }
+      copy
+    }
+    val lists = (0 until cells).map(cell => Mux(bankOfCell(cell) === 1, banks(1)(cell), banks(0)(cell)))
     // The winner that comes first in raster order (row offset, then cell, then column; without its score), in
     // registered steps
     // within the pace, one comparison each: pairs of a cell's entries, the cell's first, pairs of cells, the band's

@@ -55,10 +55,12 @@ case class HarrisStages(
   )
 
   /** the window column arrives `RowWindow.latency` nodes after it is read (through the RAM's output register) and is
-    * registered once more before it is compared; the corner leaves one node later */
+    * registered once more before it is compared; the comparisons' halves are combined a node later, and the corner
+    * leaves one node after that */
   def window: Int = suppressRead + RowWindow.latency
   def suppress: Int = window + 1
-  def output: Int = suppress + 1
+  def combine: Int = suppress + 1
+  def output: Int = combine + 1
 
   /** clocks from a column at the input to the corner it completes at the output */
   def latency: Int = output
@@ -279,14 +281,26 @@ class HarrisDetector(f: FrameConfig, h: HarrisConfig, columnRows: Int, stages: H
     val w = at(stages.window)
     val INSIDE_X = w.insert(inside(w(PIXEL).x, geometry.width))
     val INSIDE_Y = w.insert(inside(w(PIXEL).y, geometry.height))
-    // The comparisons are registered (into the output node) before they are combined.
-    val TESTS = n.insert(Vec(Seq(
-      p.active,
-      centre > control.threshold,
-      n(INSIDE_X),
-      n(INSIDE_Y)
-    ) ++ earlier.map(centre > _) ++ later.map(centre >= _)))
+    // The comparisons with the centre in two halves side by side (no carry through a whole score between two
+    // registers), registered: whether the high halves are greater and equal, and the low halves' comparison; they
+    // are combined a node later, and the tests combined into the corner's flag.
+    def halves(a: UInt, b: UInt, orEqual: Boolean): Bits = {
+      val width = a.getWidth max b.getWidth
+      val cut = width / 2
+      val (aw, bw) = (a.resize(width), b.resize(width))
+      val (aHi, bHi) = (aw(width - 1 downto cut), bw(width - 1 downto cut))
+      val (aLo, bLo) = (aw(cut - 1 downto 0), bw(cut - 1 downto 0))
+      val low = if (orEqual) aLo >= bLo else aLo > bLo
+      Cat(low, aHi === bHi, aHi > bHi)
+    }
+    val FLAGS = n.insert(Vec(p.active, n(INSIDE_X), n(INSIDE_Y)))
+    val COMPARED = n.insert(
+      Vec(Seq(halves(centre, control.threshold, orEqual = false)) ++ earlier.map(halves(centre, _, orEqual = false)) ++
+        later.map(halves(centre, _, orEqual = true)))
+    )
     val CENTRE = n.insert(centre)
+    val c = at(stages.combine)
+    val TESTS = c.insert(c(FLAGS).asBits.andR && c(COMPARED).map(v => v(0) || (v(1) && v(2))).reduce(_ && _))
     // the corner's position, the centre's, registered with the tests
     val CX = n.insert(p.x - reach)
     val CY = n.insert(p.y - reach)
@@ -294,7 +308,7 @@ class HarrisDetector(f: FrameConfig, h: HarrisConfig, columnRows: Int, stages: H
 
   val outputNode = at(stages.output)
   val output = new outputNode.Area {
-    io.corners.valid := isValid && outputNode(suppress.TESTS).andR
+    io.corners.valid := isValid && outputNode(suppress.TESTS)
     io.corners.x := outputNode(suppress.CX)
     io.corners.y := outputNode(suppress.CY)
     io.corners.score := outputNode(suppress.CENTRE)

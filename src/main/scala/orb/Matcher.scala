@@ -141,7 +141,16 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
     when(item.fire && frame.first && isKey) { stored := 0 }
     when(keyFeature && room) {
       stored := storedNow + 1
-      when(storedZero || item.score < weakest.score) { weakest.score := item.score; weakest.index := storedNow }
+    }
+    // an appended feature that becomes the weakest: decided as it is taken into a register, written a clock later
+    // (the next item is taken two clocks after at the earliest: `halfPipe`), so no score comparison drives the
+    // weakest entry's enables
+    val becomesWeakest = RegNext(keyFeature && room && (storedZero || item.score < weakest.score)) init False
+    val appendedScore = RegNext(item.score)
+    val appendedIndex = RegNext(storedNow)
+    when(becomesWeakest) {
+      weakest.score := appendedScore
+      weakest.index := appendedIndex
     }
   }
 

@@ -60,6 +60,9 @@ class OrientationUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, c
     val T = Vec(heights.map(dh => Delay(t(dh).asUInt.resize(columnSumWidth), latency - 1 - tLatency)))
     val TV = Vec(heights.map(dh => tv(dh - 1).resize(weightedSumWidth)))
     val valid = Delay(io.columns.valid, latency, init = False)
+
+    /** a copy of `valid` (its last register kept apart) for a consumer apart from the chains */
+    def validCopy(): Bool = keptApart(RegNext(Delay(io.columns.valid, latency - 1, init = False)) init False)
     // the beat's pixel beside its sums, and a clock before (the head is compared with it a clock ahead)
     val pixelAhead = Delay(io.columns.pixel, latency - 1)
     val pixel = RegNext(pixelAhead)
@@ -156,8 +159,10 @@ class OrientationUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, c
   }
   // When `sums` shows the head's last column: the chains add it a clock later (at the beat) and hold the head's
   // moments the clock after that. Emitted only when that column was processed (no fault before it in the frame).
-  val finishHere = sums.valid && head.valid && ahead.compared && ahead.at
-  head.ready := finishHere || (head.valid && sums.valid && ahead.compared && ahead.past)
+  // (the beat's valid from a copy of its own: the queue's registers lie apart from the chains)
+  val beatValid = sums.validCopy()
+  val finishHere = beatValid && head.valid && ahead.compared && ahead.at
+  head.ready := finishHere || (head.valid && beatValid && ahead.compared && ahead.past)
   val staleDrop = head.fire && !finishHere // its last column went by (a frame ended early, or the queue was late)
   val faultDrop = finishHere && !sums.active
   // A new frame: what is still queued belongs to a frame that ended before its rows came.
