@@ -86,10 +86,11 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
       (lead @@ frac).resize(width)
     }
 
-  /** Corners kept per cell in this frame's line length: `OrbConfig.perCellFor`, from its steps, into a register
-    * (the width changes only between frames, and comes from the frame tracker, apart from the lists) */
+  /** Corners kept per cell in this frame's line length: `OrbConfig.perCellFor`, from its steps, into a register; the
+    * width registered first on the budget's side (it changes only between frames, and comes from the frame tracker,
+    * apart from the lists) */
   val perCell = new Area {
-    val width = io.geometry.width
+    val width = RegNext(io.geometry.width) init 0
     val fromSteps = UInt(log2Up(k + 1) bits)
     fromSteps := 0
     for ((from, n) <- cfg.perCellSteps) when(width >= from) { fromSteps := n }
