@@ -95,22 +95,19 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
     val rowStart = RegNext(startsRow) init False
     // For the last rows: was the first pixel of the row processed, and in which frame. A corner's rows are good
     // iff the first pixel of its row cy + 22 was processed in its own frame (no fault before it): the model's rule.
-    // Kept by the row's count (its low bits name the entry; a one-hot pointer names the next row's), so a corner
-    // finds its row's entry by its own start row, with no difference of rows on the way: an entry holds its row
-    // until `historyRows` rows later, and a corner reads it only within `slackRows` rows.
+    // Kept by the row's count (its low bits name the entry), so a corner finds its row's entry by its own start row,
+    // with no difference of rows on the way: an entry holds its row until `historyRows` rows later, and a corner
+    // reads it only within `slackRows` rows.
     val history = Vec.fill(historyRows)(Reg(RowInfo()))
     history.foreach(_.active.init(False))
     val thisRow = RowInfo()
     thisRow.active := s.pixel.active
     thisRow.frame := clock.frameNext
-    // the entry of the row count after the next row start (the count after reset is 0: the first start makes it 1)
-    val historyNext = Reg(Bits(historyRows bits)) init B(BigInt(1) << 1, historyRows bits)
-    when(startsRow) {
-      historyNext := historyNext.rotateLeft(1)
-      for (i <- 0 until historyRows) {
-        when(historyNext(i)) {
-          history(i) := thisRow
-        }
+    // a row start writes the entry of the count it starts, one more than the count's low bits before it
+    val rowLow = clock.row.resize(log2Up(historyRows))
+    for (i <- 0 until historyRows) {
+      when(startsRow && rowLow === (i + historyRows - 1) % historyRows) {
+        history(i) := thisRow
       }
     }
     // The bank of the slot, one-hot beside it: it moves on when a row start leaves the bank's last slot. Each

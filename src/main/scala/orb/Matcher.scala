@@ -458,11 +458,11 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
     // feature's scan reads nothing for several clocks, and the live position stays until it starts).
     val bestLane = a.best.index.resize(log2Up(P) max 1)
 
-    /** per lane: its entry is marked (the lane, the threshold and the take-over decided a clock ahead, beside the
-      * best; only the ratio and `done` after those registers) */
+    /** per lane: its entry is marked (the lane and the take-over decided a clock ahead, beside the best, as the
+      * threshold is; only the ratio and `done` after those registers) */
     val markLanes = (0 until P).map { l =>
-      val marks = RegNext(p.crossCheck && a.best.wins && laneIs(bestLane, l) && a.best.distance <= p.hammingThreshold)
-      RegNext(done && ratioOk && marks) init False
+      val marks = RegNext(p.crossCheck && a.best.wins && laneIs(bestLane, l))
+      RegNext(done && withinThreshold && ratioOk && marks) init False
     }
     val emit = RegNext(accepted && !p.crossCheck) init False
     val markAddr = RegNext(groupOf(a.best.index, groupWidth))
