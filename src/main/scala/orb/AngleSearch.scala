@@ -71,13 +71,14 @@ class AngleSearch(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) exten
     val table = Vec(tried.map(j => U(if (j < m) tangents(j) else 0L, tWidth bits)))
     val inRange = Vec(tried.map(j => Bool(j < m)))
     val TRY = n.insert(inRange(quotient) && n(fold.A) =/= 0)
-    val TANGENT = n.insert(table(quotient))
     val p = at(first + 4 * i + 1)
-    // a's copy that feeds only the multipliers (their input registers): loaded with the step's valid, so that it is
-    // no twin of the pipeline's own register of a (which would be merged into it and feed more than multipliers)
+    // a's and T_j's copies that feed only the multipliers (their input registers): loaded with the step's valid
+    // and kept apart, so that neither is merged with a twin (the pipeline's register of a, a bit of T_j equal to
+    // one of `before`) that feeds more than multipliers
     val aForProducts = keptApart(RegNextWhen(n(fold.A), n.isValid))
-    val LO = p.insert(aForProducts(loWidth - 1 downto 0) * p(TANGENT))
-    val HI = p.insert(aForProducts(momentWidth - 1 downto loWidth) * p(TANGENT))
+    val tangent = keptApart(RegNextWhen(table(quotient), n.isValid))
+    val LO = p.insert(aForProducts(loWidth - 1 downto 0) * tangent)
+    val HI = p.insert(aForProducts(momentWidth - 1 downto loWidth) * tangent)
     val s = at(first + 4 * i + 2)
     val PRODUCT = s.insert((s(HI) << loWidth).resize(momentWidth + tWidth) + s(LO).resize(momentWidth + tWidth))
     val c = at(first + 4 * i + 3)

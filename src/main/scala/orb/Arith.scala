@@ -126,6 +126,12 @@ object Arith {
     * a window, whatever the blanking. */
   def lastValid[T <: Data](v: T, n: Int, valid: Bool): Vec[T] = History[T](v, n, valid, null.asInstanceOf[T])
 
+  /** v >= c: for a power of two, whether any bit from log2(c) up is set (no comparison's carry chain) */
+  def atLeast(v: UInt, c: Int): Bool = {
+    require(c >= 1)
+    if (isPow2(c) && log2Up(c) < v.getWidth) v(v.high downto log2Up(c)).orR else v >= c
+  }
+
   /** Arithmetic shift right (floor), written as a slice so that the Verilog has no width-changing shift. */
   def floorShift(v: SInt, n: Int): SInt = if (n == 0) v else v(v.high downto n)
   def floorShift(v: UInt, n: Int): UInt = if (n == 0) v else v(v.high downto n)

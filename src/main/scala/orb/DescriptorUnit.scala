@@ -192,7 +192,9 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
     val item = ReadyCorner()
     val quadrant = UInt(2 bits)
     val cosWords, sinWords = Vec(UInt(magnitudeWidth bits), DescriptorUnit.tableParts)
-    val part = UInt(log2Up(DescriptorUnit.tableParts) bits)
+
+    /** the part, a copy for each table (kept apart) */
+    val cosPart, sinPart = UInt(log2Up(DescriptorUnit.tableParts) bits)
   }
   def lookupCosSin(i: IndexedCorner): CosSinLookup = {
     val o = CosSinLookup()
@@ -200,7 +202,8 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
     o.quadrant := i.item.bin(d.binWidth - 1 downto d.binWidth - 2)
     o.cosWords := cosTable.wordsEach(i.within.toSeq)
     o.sinWords := sinTable.wordsEach(i.within.toSeq)
-    o.part := cosTable.part(i.within.head)
+    o.cosPart := cosTable.part(i.within.head)
+    o.sinPart := sinTable.part(i.within.last)
     o
   }
 
@@ -214,8 +217,8 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
     val o = CosSinPicked()
     o.item := l.item
     o.quadrant := l.quadrant
-    o.c := cosTable.pick(l.cosWords, l.part)
-    o.s := sinTable.pick(l.sinWords, l.part)
+    o.c := cosTable.pick(l.cosWords, l.cosPart)
+    o.s := sinTable.pick(l.sinWords, l.sinPart)
     o
   }
 
@@ -245,7 +248,8 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
     // pick and the quadrant's swap, each step with its valid and ready registered (no chain of readies from the
     // decision back to the queue): a step passes a corner every other clock, and corners are an engine's run apart
     val indexedHead = Pipes.halfPipeKeeping(ready.io.pop.m2sPipe().map(indexed))(_.within.toSeq)
-    val head = indexedHead.map(lookupCosSin).halfPipe().map(pickCosSin).halfPipe().map(prepare).halfPipe()
+    val lookedUp = Pipes.halfPipeKeeping(indexedHead.map(lookupCosSin))(l => Seq(l.cosPart, l.sinPart))
+    val head = lookedUp.map(pickCosSin).halfPipe().map(prepare).halfPipe()
     val c = head.payload.item
     // rows since the patch was complete (negative: not yet), for the head of the clock before: it is the head's
     // now unless the head left then or a row started since (the rows and their history then moved on)
@@ -255,7 +259,7 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
     val current = computed && !ring.rowStart
     // the tests on the rows since, registered beside them: the start decision only combines registers
     val early = RegNext(difference.msb) init True
-    val late = RegNext(difference.asUInt >= d.slackRows) init False
+    val late = RegNext(Arith.atLeast(difference.asUInt, d.slackRows)) init False
     // each row's test against the head's frame, then the one its start row names (the same entry as the row
     // `difference` rows back whenever that is within the slack: otherwise `early` or `late` decides)
     val goodRows = Vec(ring.history.map(row => row.active && row.frame === c.frameTag))
@@ -492,29 +496,18 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
 
       /** the slot of the corner fetched last */
       val tag = RegInit(True)
-      private val copies = scala.collection.mutable.ArrayBuffer[UInt]()
-      private def newCount(): UInt = Reg(UInt(log2Up(groups + 1) bits)) init groups
-      val group = newCount()
+      val group = Reg(UInt(log2Up(groups + 1) bits)) init groups
       val valid = group < groups
-      private def counting(g: UInt): UInt = {
-        when(enable(widthOf(g)) && valid) {
-          g := g + 1
-        }
-        // the slot's abandonment from copies of its own (the counts lie apart from the slots)
-        when(valid && Mux(tag, slots(1).abandonCopy(), slots(0).abandonCopy())) {
-          g := groups
-        }
-        copies += g
-        g
+      when(enable(widthOf(group)) && valid) {
+        group := group + 1
       }
-      counting(group)
+      // the slot's abandonment from copies of its own (the count lies apart from the slots)
+      when(valid && Mux(tag, slots(1).abandonCopy(), slots(0).abandonCopy())) {
+        group := groups
+      }
 
-      /** a copy of `group` kept apart, its next value formed beside it: no one next-value logic drives every copy
-        * across the chip */
-      def counter(): UInt = counting(newCount())
-
-      /** a corner starts: every count from its first group */
-      def restart(): Unit = copies.foreach(_ := 0)
+      /** a corner starts: the count from its first group */
+      def restart(): Unit = group := 0
       val token = Token()
       token.valid := valid
       token.tag := tag
@@ -549,14 +542,21 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
       val token = stepToken(stepToken(stepToken(fetch.token)))
       val index = fetch.group.resize(log2Up(groups))
       val table = Arith.SplitTable(rom, pointsPerGroup * 2 * fieldWidth, DescriptorUnit.tableParts)
-      // a copy of the group count per part of the table (kept apart)
+      // a copy of the group count per part of the table (kept apart), loaded with the count's next value: no
+      // incrementer of its own beside the lookup (synthesis would share its carry chain with the table's logic)
       val indexCopies = (0 until DescriptorUnit.tableParts).map { _ =>
-        val r = keptApart(fetch.counter())
+        val r = keptApart(RegNext(fetch.group.getAheadValue()) init groups)
         r.resize(log2Up(groups))
       }
       val words = Vec(table.wordsEach(indexCopies).map(step(_)))
-      val part = step(table.part(index))
-      val picked = step(table.pick(words, part).asBits)
+      // the part, a copy per slice of the word (kept apart): no one register selects every bit
+      val wordWidth = pointsPerGroup * 2 * fieldWidth
+      val sliceWidth = (wordWidth + DescriptorUnit.pickSlices - 1) / DescriptorUnit.pickSlices
+      val slices = (0 until wordWidth by sliceWidth).map(lo => lo until ((lo + sliceWidth) min wordWidth))
+      val picked = step(Cat(slices.map { slice =>
+        val part = keptApart(step(table.part(index)))
+        table.pick(Vec(words.map(w => w(slice.last downto slice.head))), part)
+      }))
       val bits = step(picked)
       private def field(k: Int): Bits = bits(k * (patternWidth + 1), patternWidth + 1 bits)
 
@@ -1052,6 +1052,9 @@ object DescriptorUnit {
   /** parts of the constant tables (the test pattern, cos and sin), each read with a small index into a register
     * before the part is picked */
   val tableParts: Int = 8
+
+  /** slices of the test pattern's word, each picked from its parts by its own copy of the part */
+  val pickSlices: Int = 4
 
   /** copies of the front end's `advance`, each enabling a share of its registers */
   val advanceCopies: Int = 16

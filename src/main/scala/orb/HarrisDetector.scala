@@ -165,14 +165,21 @@ class HarrisDetector(f: FrameConfig, h: HarrisConfig, columnRows: Int, stages: H
         ) // win(j)(i): column x - j, row index i + 1
       def px(dx: Int, dy: Int): UInt = win(4 - dx)(3 - dy) // dy > 0 is down, a newer row
       // centre + t and centre - t, registered a beat ahead from the pixel that becomes the centre (the window
-      // advances with valid pixels), so that no adder lies before the 32 comparisons
+      // advances with valid pixels), so that no adder lies before the 32 comparisons; a copy of each per arc of
+      // the circle (kept apart), so that no one register feeds all 16 comparisons
       val t = control.segmentThreshold
       val upcoming = px(1, 0)
-      val brighterThan = RegNextWhen(upcoming +^ t, compareNode.isValid)
-      val darkerThan = RegNextWhen(upcoming.intoSInt.resize(10) - t.intoSInt.resize(10), compareNode.isValid)
+      val copies = SegmentTestConfig.thresholdCopies
+      val brighterThan = Seq.fill(copies)(Pipes.keptApart(RegNextWhen(upcoming +^ t, compareNode.isValid)))
+      val darkerThan = Seq.fill(copies)(
+        Pipes.keptApart(RegNextWhen(upcoming.intoSInt.resize(10) - t.intoSInt.resize(10), compareNode.isValid))
+      )
       val ring = SegmentTestConfig.circle.map { case (dx, dy) => px(dx, dy) }
-      val BRIGHTER = compareNode.insert(Vec(ring.map(_ > brighterThan)).asBits)
-      val DARKER = compareNode.insert(Vec(ring.map(_.intoSInt.resize(10) < darkerThan)).asBits)
+      def arcOf(i: Int): Int = i * copies / ring.size
+      val BRIGHTER = compareNode.insert(Vec(ring.zipWithIndex.map { case (p, i) => p > brighterThan(arcOf(i)) }).asBits)
+      val DARKER = compareNode.insert(
+        Vec(ring.zipWithIndex.map { case (p, i) => p.intoSInt.resize(10) < darkerThan(arcOf(i)) }).asBits
+      )
       def anyArc(b: Bits): Bool = (0 until 16).map(s => (0 until sc.arc).map(k => b((s + k) % 16)).andR).orR
       val PASSES = arcNode.insert(anyArc(arcNode(BRIGHTER)) || anyArc(arcNode(DARKER)))
     }
