@@ -67,9 +67,15 @@ class AngleSearch(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) exten
     // is looked up by before / step in a table of this step's own indices (no adder before the lookup)
     val shift = log2Up(step)
     val quotient = before(countWidth - 1 downto shift)
-    val tried = (0 until (1 << quotient.getWidth)).map(q => q * step + step - 1)
-    val table = Vec(tried.map(j => U(if (j < m) tangents(j) else 0L, tWidth bits)))
-    val inRange = Vec(tried.map(j => Bool(j < m)))
+    def tried(q: Int): Int = q * step + step - 1
+    // an index past the octant is never tried (TRY); its entry repeats the one without the quotient's top bit, so
+    // that (m a power of two) the table does not depend on that bit: no entry forced to 0 by it, which synthesis
+    // would make a reset of the multipliers' input register
+    val half = 1 << (quotient.getWidth - 1)
+    def entry(q: Int): Long =
+      if (tried(q) < m) tangents(tried(q)) else if (q >= half && tried(q - half) < m) tangents(tried(q - half)) else 0L
+    val table = Vec((0 until (1 << quotient.getWidth)).map(q => U(entry(q), tWidth bits)))
+    val inRange = Vec((0 until (1 << quotient.getWidth)).map(q => Bool(tried(q) < m)))
     val TRY = n.insert(inRange(quotient) && n(fold.A) =/= 0)
     val p = at(first + 4 * i + 1)
     // a's and T_j's copies that feed only the multipliers (their input registers): loaded with the step's valid

@@ -193,7 +193,7 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
     val quadrant = UInt(2 bits)
     val cosWords, sinWords = Vec(UInt(magnitudeWidth bits), DescriptorUnit.tableParts)
 
-    /** the part, a copy for each table (kept apart) */
+    /** the part, a copy for each table (each from its own copy of the index) */
     val cosPart, sinPart = UInt(log2Up(DescriptorUnit.tableParts) bits)
   }
   def lookupCosSin(i: IndexedCorner): CosSinLookup = {
@@ -248,7 +248,7 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
     // pick and the quadrant's swap, each step with its valid and ready registered (no chain of readies from the
     // decision back to the queue): a step passes a corner every other clock, and corners are an engine's run apart
     val indexedHead = Pipes.halfPipeKeeping(ready.io.pop.m2sPipe().map(indexed))(_.within.toSeq)
-    val lookedUp = Pipes.halfPipeKeeping(indexedHead.map(lookupCosSin))(l => Seq(l.cosPart, l.sinPart))
+    val lookedUp = Pipes.halfPipe(indexedHead.map(lookupCosSin), DescriptorUnit.lookupParts)
     val head = lookedUp.map(pickCosSin).halfPipe().map(prepare).halfPipe()
     val c = head.payload.item
     // rows since the patch was complete (negative: not yet), for the head of the clock before: it is the head's
@@ -276,9 +276,15 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
     val starts = due && !late && dataOk && free && !decided && !rowStarts
     start := starts
     refuse := due && (late || !dataOk) && !decided
-    // a copy of `start` per engine slot (kept apart): each loads its slot's corner
+    // a copy of `start` per engine slot (kept apart): each turns its slot's turn flag
     val slotStarts = Seq.fill(2) {
       keptApart(RegNext(starts) init False)
+    }
+    // per slot, copies of "a corner starts in this slot" (kept apart), each loading a share of the slot's registers:
+    // one register each, as the slot's turn flag does not change in the clock after a start (starts are at least two
+    // clocks apart: `decided`)
+    val slotBegins = engine.slots.map { s =>
+      Seq.fill(DescriptorUnit.beginCopies)(keptApart(RegNext(starts && s.takesNext) init False))
     }
     // the newest patch row (cy + 18) is in the slot of raw row cy + 21, `since + 1` rows back; the oldest 36 more
     // (registered before it is wrapped into the ring: the wrap is formed as a start takes it)
@@ -291,7 +297,7 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
     // A frame end leaves when every corner before it has: the engine idle.
     val marker = head.valid && c.end.now && engine.idle
     head.ready := start || refuse || (marker && output.ready)
-    engine.begin(head.payload, base, rowsLeft, start, slotStarts)
+    engine.begin(head.payload, base, rowsLeft, start, slotStarts, slotBegins)
   }
 
   /** One corner in the engine, from its start until its feature is handed on: what the front end needs of it (the
@@ -343,16 +349,24 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
     }
     val abandonCopies = Seq.fill(DescriptorUnit.advanceCopies / DescriptorUnit.advanceCopiesPerAbandon)(abandonCopy())
 
-    def begin(c: PreparedCorner, b: UInt, left: UInt): Unit = {
-      begins := True
-      beginsOnLastRow := left === 1
-      state := EngineState.RUN
-      corner := c.item
-      rotation := c.rotation
-      base := b
-      rowsLeft := left
-      done := 0
-      lastGroup := Bool(groups == 1)
+    /** A corner starts in this slot when `enables` (copies of one flag, each loading a share of the registers). */
+    def begin(c: PreparedCorner, b: UInt, left: UInt, enables: Seq[Bool]): Unit = {
+      require(enables.size == DescriptorUnit.beginCopies)
+      when(enables(0)) {
+        begins := True
+        beginsOnLastRow := left === 1
+        state := EngineState.RUN
+        done := 0
+        lastGroup := Bool(groups == 1)
+      }
+      when(enables(1)) {
+        rotation := c.rotation
+        base := b
+        rowsLeft := left
+      }
+      when(enables(2)) {
+        corner := c.item
+      }
     }
 
     /** A group's results collected when `enables` (copies of one flag: the first for the count and the state, each
@@ -407,14 +421,20 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
       keptApart(RegInit(False))
     }
 
-    /** A corner starts when `start`; `slotStarts` are copies of it (kept apart), one per slot, each loading that
-      * slot's registers. */
-    def begin(c: PreparedCorner, b: UInt, left: UInt, start: Bool, slotStarts: Seq[Bool]): Unit = {
-      for ((s, slotStart) <- slots.zip(slotStarts)) {
+    /** A corner starts when `start`; `slotStarts` are copies of it (kept apart), one per slot, each turning that
+      * slot's turn flag; `slotBegins` per slot, copies of the start into that slot, each loading a share of its
+      * registers. */
+    def begin(
+        c: PreparedCorner,
+        b: UInt,
+        left: UInt,
+        start: Bool,
+        slotStarts: Seq[Bool],
+        slotBegins: Seq[Seq[Bool]]
+    ): Unit = {
+      for (((s, slotStart), begins) <- slots.zip(slotStarts).zip(slotBegins)) {
+        s.begin(c, b, left, begins)
         when(slotStart) {
-          when(s.takesNext) {
-            s.begin(c, b, left)
-          }
           s.takesNext := !s.takesNext
         }
       }
@@ -1052,6 +1072,13 @@ object DescriptorUnit {
   /** parts of the constant tables (the test pattern, cos and sin), each read with a small index into a register
     * before the part is picked */
   val tableParts: Int = 8
+
+  /** copies of a slot's start, each loading a share of its registers (its control, its rotation and rows, its
+    * corner) */
+  val beginCopies: Int = 3
+
+  /** slices of the cos/sin lookup's register, each loaded by its own copy of its "empty" flag */
+  val lookupParts: Int = 8
 
   /** slices of the test pattern's word, each picked from its parts by its own copy of the part */
   val pickSlices: Int = 4

@@ -288,18 +288,9 @@ class HarrisDetector(f: FrameConfig, h: HarrisConfig, columnRows: Int, stages: H
     val w = at(stages.window)
     val INSIDE_X = w.insert(inside(w(PIXEL).x, geometry.width))
     val INSIDE_Y = w.insert(inside(w(PIXEL).y, geometry.height))
-    // The comparisons with the centre in two halves side by side (no carry through a whole score between two
-    // registers), registered: whether the high halves are greater and equal, and the low halves' comparison; they
-    // are combined a node later, and the tests combined into the corner's flag.
-    def halves(a: UInt, b: UInt, orEqual: Boolean): Bits = {
-      val width = a.getWidth max b.getWidth
-      val cut = width / 2
-      val (aw, bw) = (a.resize(width), b.resize(width))
-      val (aHi, bHi) = (aw(width - 1 downto cut), bw(width - 1 downto cut))
-      val (aLo, bLo) = (aw(cut - 1 downto 0), bw(cut - 1 downto 0))
-      val low = if (orEqual) aLo >= bLo else aLo > bLo
-      Cat(low, aHi === bHi, aHi > bHi)
-    }
+    // The comparisons with the centre in two halves side by side, registered, combined a node later, and the tests
+    // combined into the corner's flag.
+    def halves(a: UInt, b: UInt, orEqual: Boolean): Bits = Arith.comparedInHalves(a, b, orEqual)
     val FLAGS = n.insert(Vec(p.active, n(INSIDE_X), n(INSIDE_Y)))
     val COMPARED = n.insert(
       Vec(Seq(halves(centre, control.threshold, orEqual = false)) ++ earlier.map(halves(centre, _, orEqual = false)) ++
@@ -307,7 +298,7 @@ class HarrisDetector(f: FrameConfig, h: HarrisConfig, columnRows: Int, stages: H
     )
     val CENTRE = n.insert(centre)
     val c = at(stages.combine)
-    val TESTS = c.insert(c(FLAGS).asBits.andR && c(COMPARED).map(v => v(0) || (v(1) && v(2))).reduce(_ && _))
+    val TESTS = c.insert(c(FLAGS).asBits.andR && c(COMPARED).map(Arith.combineHalves).reduce(_ && _))
     // the corner's position, the centre's, registered with the tests
     val CX = n.insert(p.x - reach)
     val CY = n.insert(p.y - reach)

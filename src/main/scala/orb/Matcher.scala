@@ -313,16 +313,21 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
     val read = Delay(rescan.issuing, crossLatency + 1, init = False)
     val base = Delay(rescan.group.resize(countWidth) |<< log2Up(P), crossLatency + 1)
     val first = Delay(rescan.issuing && rescan.group === 0, crossLatency + 1, init = False)
-    // the group's lowest score, the first lane on ties, in two registered steps: every pair of lanes compared side
-    // by side, then the lane below every lane before it and not above any after it picked (no comparison waits
-    // for a choice, no choice for a comparison)
-    val values = scores.map(RegNext(_))
-    val below = (0 until P).map(i => (0 until P).map(j => if (i == j) False else RegNext(scores(i) < scores(j))))
-    val picks = Vec((0 until P).map { i =>
-      ((0 until i).map(j => below(i)(j)) ++ (i + 1 until P).map(j => !below(j)(i))).foldLeft(True)(_ && _)
-    })
+    // the group's lowest score, the first lane on ties, in four registered steps: every pair of lanes compared side
+    // by side, in halves (no carry through a whole score in one clock), the halves combined, the lane below every
+    // lane before it and not above any after it picked, its score selected (no comparison waits for a choice, no
+    // choice for a comparison). Only the pairs of a lane with an earlier one are compared: the picks need no other.
+    val values = scores.map(s => Delay(s, 3))
+    def below(i: Int, j: Int): Bool = {
+      require(j < i)
+      RegNext(Arith.combineHalves(RegNext(Arith.comparedInHalves(scores(j), scores(i), orEqual = false))))
+    }
+    val belowEarlier = (0 until P).map(i => (0 until i).map(j => below(i, j)))
+    val picks = RegNext(Vec((0 until P).map { i =>
+      ((0 until i).map(j => belowEarlier(i)(j)) ++ (i + 1 until P).map(j => !belowEarlier(j)(i))).foldLeft(True)(_ && _)
+    }))
     val low = RegNext(MuxOH.or(picks, values))
-    val levels = 2
+    val levels = 4
     val index = Delay(base, levels) | RegNext(OHToUInt(picks)).resize(countWidth)
     val valid = Delay(read, levels, init = False)
     val firstD = Delay(first, levels, init = False)
