@@ -192,9 +192,7 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
     val item = ReadyCorner()
     val quadrant = UInt(2 bits)
     val cosWords, sinWords = Vec(UInt(magnitudeWidth bits), DescriptorUnit.tableParts)
-
-    /** the part, a copy for each table (each from its own copy of the index) */
-    val cosPart, sinPart = UInt(log2Up(DescriptorUnit.tableParts) bits)
+    val part = UInt(log2Up(DescriptorUnit.tableParts) bits)
   }
   def lookupCosSin(i: IndexedCorner): CosSinLookup = {
     val o = CosSinLookup()
@@ -202,8 +200,7 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
     o.quadrant := i.item.bin(d.binWidth - 1 downto d.binWidth - 2)
     o.cosWords := cosTable.wordsEach(i.within.toSeq)
     o.sinWords := sinTable.wordsEach(i.within.toSeq)
-    o.cosPart := cosTable.part(i.within.head)
-    o.sinPart := sinTable.part(i.within.last)
+    o.part := cosTable.part(i.within.head)
     o
   }
 
@@ -217,8 +214,8 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
     val o = CosSinPicked()
     o.item := l.item
     o.quadrant := l.quadrant
-    o.c := cosTable.pick(l.cosWords, l.cosPart)
-    o.s := sinTable.pick(l.sinWords, l.sinPart)
+    o.c := cosTable.pick(l.cosWords, l.part)
+    o.s := sinTable.pick(l.sinWords, l.part)
     o
   }
 
@@ -248,8 +245,7 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
     // pick and the quadrant's swap, each step with its valid and ready registered (no chain of readies from the
     // decision back to the queue): a step passes a corner every other clock, and corners are an engine's run apart
     val indexedHead = Pipes.halfPipeKeeping(ready.io.pop.m2sPipe().map(indexed))(_.within.toSeq)
-    val lookedUp = Pipes.halfPipe(indexedHead.map(lookupCosSin), DescriptorUnit.lookupParts)
-    val head = lookedUp.map(pickCosSin).halfPipe().map(prepare).halfPipe()
+    val head = indexedHead.map(lookupCosSin).halfPipe().map(pickCosSin).halfPipe().map(prepare).halfPipe()
     val c = head.payload.item
     // rows since the patch was complete (negative: not yet), for the head of the clock before: it is the head's
     // now unless the head left then or a row started since (the rows and their history then moved on)
@@ -259,7 +255,7 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
     val current = computed && !ring.rowStart
     // the tests on the rows since, registered beside them: the start decision only combines registers
     val early = RegNext(difference.msb) init True
-    val late = RegNext(Arith.atLeast(difference.asUInt, d.slackRows)) init False
+    val late = RegNext(difference.asUInt >= d.slackRows) init False
     // each row's test against the head's frame, then the one its start row names (the same entry as the row
     // `difference` rows back whenever that is within the slack: otherwise `early` or `late` decides)
     val goodRows = Vec(ring.history.map(row => row.active && row.frame === c.frameTag))
@@ -276,15 +272,9 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
     val starts = due && !late && dataOk && free && !decided && !rowStarts
     start := starts
     refuse := due && (late || !dataOk) && !decided
-    // a copy of `start` per engine slot (kept apart): each turns its slot's turn flag
+    // a copy of `start` per engine slot (kept apart): each loads its slot's corner
     val slotStarts = Seq.fill(2) {
       keptApart(RegNext(starts) init False)
-    }
-    // per slot, copies of "a corner starts in this slot" (kept apart), each loading a share of the slot's registers:
-    // one register each, as the slot's turn flag does not change in the clock after a start (starts are at least two
-    // clocks apart: `decided`)
-    val slotBegins = engine.slots.map { s =>
-      Seq.fill(DescriptorUnit.beginCopies)(keptApart(RegNext(starts && s.takesNext) init False))
     }
     // the newest patch row (cy + 18) is in the slot of raw row cy + 21, `since + 1` rows back; the oldest 36 more
     // (registered before it is wrapped into the ring: the wrap is formed as a start takes it)
@@ -297,7 +287,7 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
     // A frame end leaves when every corner before it has: the engine idle.
     val marker = head.valid && c.end.now && engine.idle
     head.ready := start || refuse || (marker && output.ready)
-    engine.begin(head.payload, base, rowsLeft, start, slotStarts, slotBegins)
+    engine.begin(head.payload, base, rowsLeft, start, slotStarts)
   }
 
   /** One corner in the engine, from its start until its feature is handed on: what the front end needs of it (the
@@ -349,24 +339,16 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
     }
     val abandonCopies = Seq.fill(DescriptorUnit.advanceCopies / DescriptorUnit.advanceCopiesPerAbandon)(abandonCopy())
 
-    /** A corner starts in this slot when `enables` (copies of one flag, each loading a share of the registers). */
-    def begin(c: PreparedCorner, b: UInt, left: UInt, enables: Seq[Bool]): Unit = {
-      require(enables.size == DescriptorUnit.beginCopies)
-      when(enables(0)) {
-        begins := True
-        beginsOnLastRow := left === 1
-        state := EngineState.RUN
-        done := 0
-        lastGroup := Bool(groups == 1)
-      }
-      when(enables(1)) {
-        rotation := c.rotation
-        base := b
-        rowsLeft := left
-      }
-      when(enables(2)) {
-        corner := c.item
-      }
+    def begin(c: PreparedCorner, b: UInt, left: UInt): Unit = {
+      begins := True
+      beginsOnLastRow := left === 1
+      state := EngineState.RUN
+      corner := c.item
+      rotation := c.rotation
+      base := b
+      rowsLeft := left
+      done := 0
+      lastGroup := Bool(groups == 1)
     }
 
     /** A group's results collected when `enables` (copies of one flag: the first for the count and the state, each
@@ -421,20 +403,14 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
       keptApart(RegInit(False))
     }
 
-    /** A corner starts when `start`; `slotStarts` are copies of it (kept apart), one per slot, each turning that
-      * slot's turn flag; `slotBegins` per slot, copies of the start into that slot, each loading a share of its
-      * registers. */
-    def begin(
-        c: PreparedCorner,
-        b: UInt,
-        left: UInt,
-        start: Bool,
-        slotStarts: Seq[Bool],
-        slotBegins: Seq[Seq[Bool]]
-    ): Unit = {
-      for (((s, slotStart), begins) <- slots.zip(slotStarts).zip(slotBegins)) {
-        s.begin(c, b, left, begins)
+    /** A corner starts when `start`; `slotStarts` are copies of it (kept apart), one per slot, each loading that
+      * slot's registers. */
+    def begin(c: PreparedCorner, b: UInt, left: UInt, start: Bool, slotStarts: Seq[Bool]): Unit = {
+      for ((s, slotStart) <- slots.zip(slotStarts)) {
         when(slotStart) {
+          when(s.takesNext) {
+            s.begin(c, b, left)
+          }
           s.takesNext := !s.takesNext
         }
       }
@@ -516,18 +492,29 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
 
       /** the slot of the corner fetched last */
       val tag = RegInit(True)
-      val group = Reg(UInt(log2Up(groups + 1) bits)) init groups
+      private val copies = scala.collection.mutable.ArrayBuffer[UInt]()
+      private def newCount(): UInt = Reg(UInt(log2Up(groups + 1) bits)) init groups
+      val group = newCount()
       val valid = group < groups
-      when(enable(widthOf(group)) && valid) {
-        group := group + 1
+      private def counting(g: UInt): UInt = {
+        when(enable(widthOf(g)) && valid) {
+          g := g + 1
+        }
+        // the slot's abandonment from copies of its own (the counts lie apart from the slots)
+        when(valid && Mux(tag, slots(1).abandonCopy(), slots(0).abandonCopy())) {
+          g := groups
+        }
+        copies += g
+        g
       }
-      // the slot's abandonment from copies of its own (the count lies apart from the slots)
-      when(valid && Mux(tag, slots(1).abandonCopy(), slots(0).abandonCopy())) {
-        group := groups
-      }
+      counting(group)
 
-      /** a corner starts: the count from its first group */
-      def restart(): Unit = group := 0
+      /** a copy of `group` kept apart, its next value formed beside it: no one next-value logic drives every copy
+        * across the chip */
+      def counter(): UInt = counting(newCount())
+
+      /** a corner starts: every count from its first group */
+      def restart(): Unit = copies.foreach(_ := 0)
       val token = Token()
       token.valid := valid
       token.tag := tag
@@ -562,21 +549,14 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
       val token = stepToken(stepToken(stepToken(fetch.token)))
       val index = fetch.group.resize(log2Up(groups))
       val table = Arith.SplitTable(rom, pointsPerGroup * 2 * fieldWidth, DescriptorUnit.tableParts)
-      // a copy of the group count per part of the table (kept apart), loaded with the count's next value: no
-      // incrementer of its own beside the lookup (synthesis would share its carry chain with the table's logic)
+      // a copy of the group count per part of the table (kept apart)
       val indexCopies = (0 until DescriptorUnit.tableParts).map { _ =>
-        val r = keptApart(RegNext(fetch.group.getAheadValue()) init groups)
+        val r = keptApart(fetch.counter())
         r.resize(log2Up(groups))
       }
       val words = Vec(table.wordsEach(indexCopies).map(step(_)))
-      // the part, a copy per slice of the word (kept apart): no one register selects every bit
-      val wordWidth = pointsPerGroup * 2 * fieldWidth
-      val sliceWidth = (wordWidth + DescriptorUnit.pickSlices - 1) / DescriptorUnit.pickSlices
-      val slices = (0 until wordWidth by sliceWidth).map(lo => lo until ((lo + sliceWidth) min wordWidth))
-      val picked = step(Cat(slices.map { slice =>
-        val part = keptApart(step(table.part(index)))
-        table.pick(Vec(words.map(w => w(slice.last downto slice.head))), part)
-      }))
+      val part = step(table.part(index))
+      val picked = step(table.pick(words, part).asBits)
       val bits = step(picked)
       private def field(k: Int): Bits = bits(k * (patternWidth + 1), patternWidth + 1 bits)
 
@@ -1072,16 +1052,6 @@ object DescriptorUnit {
   /** parts of the constant tables (the test pattern, cos and sin), each read with a small index into a register
     * before the part is picked */
   val tableParts: Int = 8
-
-  /** copies of a slot's start, each loading a share of its registers (its control, its rotation and rows, its
-    * corner) */
-  val beginCopies: Int = 3
-
-  /** slices of the cos/sin lookup's register, each loaded by its own copy of its "empty" flag */
-  val lookupParts: Int = 8
-
-  /** slices of the test pattern's word, each picked from its parts by its own copy of the part */
-  val pickSlices: Int = 4
 
   /** copies of the front end's `advance`, each enabling a share of its registers */
   val advanceCopies: Int = 16

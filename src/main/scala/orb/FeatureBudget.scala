@@ -285,15 +285,13 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
     require(candidates.size >= 2, "a band holds at least two entries")
     val choice = lastLevelOf(candidates.toSeq)
     val first = RegNext(choice)
-    // the winner's place in each cell, copies per bank and cell (kept apart): one picks its cell's score, the other
-    // its rank and empties its entry
-    def placeCopies(): Seq[Seq[Bits]] = (0 until 2).map { _ =>
+    // the winner's place in each cell, one copy per bank and cell (kept apart): each picks its cell's score and
+    // empties its cell's entry
+    val places = (0 until 2).map { _ =>
       (0 until cells).map { cell =>
         keptApart(RegNext(choice.place(cell * k, k bits)))
       }
     }
-    val scorePlaces = placeCopies()
-    val places = placeCopies()
     // the choice's register levels, then the score picked by its place into a register: the winner leaves after
     // them (its entry emptied then, a clock before the next round's entries are registered)
     val steps = 1 + log2Up(candidates.size) + 2
@@ -306,7 +304,7 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
     // the score is not carried through the choice (narrower selections): picked by the winner's place into a
     // register in the clock before it leaves
     // (in two registered steps: each cell's, then the cell's, in each bank; the bank chosen after them)
-    val cellScores = banks.zip(scorePlaces).map { case (bk, bankPlaces) =>
+    val cellScores = banks.zip(places).map { case (bk, bankPlaces) =>
       bk.zip(bankPlaces).map { case (list, place) => RegNext(MuxOH.or(place: Bits, list.map(_.score).toSeq)) }
     }
     val scores = cellScores.map(cs => RegNext(cs.reduce(_ | _)))
