@@ -29,19 +29,35 @@ class MatcherSpec extends AnyFunSuite {
   val f: FrameConfig = FrameConfig(maxWidth = 128, maxHeight = 128)
   lazy val matcher: SimCompiled[Matcher] = {
     println(s"[orb] compiling the Verilator model of Matcher (16 entries); seed = $seed")
-    CoreSim.simConfig("simWorkspace/matcher").compile(new Matcher(f, HarrisConfig(), OrbDescriptorConfig(), m))
+    CoreSim.simConfig("simWorkspace/matcher").compile(withItemPublic(new Matcher(
+      f,
+      HarrisConfig(),
+      OrbDescriptorConfig(),
+      m
+    )))
+  }
+
+  /** the matcher with its internal item handshake visible: what a hold is measured on */
+  def withItemPublic(dut: Matcher): Matcher = {
+    dut.item.valid.simPublic()
+    dut.item.ready.simPublic()
+    dut
   }
 
   /** a store of one group (as many entries as comparators): a scan is a single read */
   val mOneGroup: MatcherConfig = m.copy(storeCapacity = m.comparators)
   lazy val oneGroup: SimCompiled[Matcher] = {
     println(s"[orb] compiling the Verilator model of Matcher (one group); seed = $seed")
-    CoreSim.simConfig("simWorkspace/matcher1").compile(new Matcher(f, HarrisConfig(), OrbDescriptorConfig(), mOneGroup))
+    CoreSim.simConfig("simWorkspace/matcher1")
+      .compile(withItemPublic(new Matcher(f, HarrisConfig(), OrbDescriptorConfig(), mOneGroup)))
   }
 
   /** Drives `stream` (features and frame ends) with random gaps (or none: each item as soon as the last is taken);
     * the consumer is ready with probability `ready` (1: always) and, if `stallFor` > 0, not at all for that many
-    * clocks after the first frame end. */
+    * clocks after the first frame end. With a consumer always ready, checks on the matcher's own item handshake
+    * that no item holds it longer than its configuration says (`clocksPerFeature` for a feature, live or keyframe,
+    * replacing or not; `frameEndClocks` for a frame end), whenever the next item was waiting: the feature budget's
+    * service bound counts on it. */
   def runRtl(
       name: String,
       stream: Seq[Either[FrameEnd, Feature]],
@@ -66,7 +82,14 @@ class MatcherSpec extends AnyFunSuite {
       CoreSim.startClock(dut.clockDomain)
       val got = ArrayBuffer[Correspondence]()
       var stallLeft = -1
+      // the clock of every item's take by the matcher, and of the first clock it waited there
+      var clocks = 0L
+      val taken = ArrayBuffer[Long]()
+      val waiting = ArrayBuffer[Long]()
       dut.clockDomain.onSamplings {
+        clocks += 1
+        if (dut.item.valid.toBoolean && waiting.size == taken.size) waiting += clocks
+        if (dut.item.valid.toBoolean && dut.item.ready.toBoolean) taken += clocks
         val c = dut.io.correspondences
         if (c.valid.toBoolean && c.ready.toBoolean)
           got += Correspondence(c.liveX.toInt, c.liveY.toInt, c.keyX.toInt, c.keyY.toInt, c.distance.toInt)
@@ -108,6 +131,15 @@ class MatcherSpec extends AnyFunSuite {
         seen = now
       }
       out = RtlMatches(got.toSeq, s.stored.toLong, s.storeOverflow.toLong, s.matches.toLong, s.matchDrops.toLong)
+      if (ready >= 1 && stallFor == 0) {
+        // item k was waiting by the time item k - 1 was taken (a clock to reach the matcher's register): k - 1's hold
+        val holds =
+          (1 until taken.size).filter(k => waiting(k) <= taken(k - 1) + 2).map(k => (k - 1, taken(k) - taken(k - 1)))
+        val over = holds.filter { case (k, h) => h > (if (stream(k).isRight) m.clocksPerFeature else m.frameEndClocks) }
+        val longest = holds.filter(h => stream(h._1).isRight).map(_._2).maxOption.getOrElse(0L)
+        println(s"[orb] $name: longest hold by a feature $longest clocks (at most ${m.clocksPerFeature})")
+        assert(over.isEmpty, s"$name: items held the matcher too long (item, clocks): ${over.take(5).mkString(", ")}")
+      }
     }
     out
   }
