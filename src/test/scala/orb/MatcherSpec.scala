@@ -29,27 +29,24 @@ class MatcherSpec extends AnyFunSuite {
   val f: FrameConfig = FrameConfig(maxWidth = 128, maxHeight = 128)
   lazy val matcher: SimCompiled[Matcher] = {
     println(s"[orb] compiling the Verilator model of Matcher (16 entries); seed = $seed")
-    CoreSim.simConfig("simWorkspace/matcher").compile(withItemPublic(new Matcher(
-      f,
-      HarrisConfig(),
-      OrbDescriptorConfig(),
-      m
-    )))
+    compiled("simWorkspace/matcher", m)
   }
 
-  /** the matcher with its internal item handshake visible: what a hold is measured on */
-  def withItemPublic(dut: Matcher): Matcher = {
-    dut.item.valid.simPublic()
-    dut.item.ready.simPublic()
-    dut
-  }
+  /** a Verilator model of the matcher with `config`, its internal item handshake visible (what a hold is measured
+    * on) */
+  def compiled(workspace: String, config: MatcherConfig): SimCompiled[Matcher] =
+    CoreSim.simConfig(workspace).compile {
+      val dut = new Matcher(f, HarrisConfig(), OrbDescriptorConfig(), config)
+      dut.item.valid.simPublic()
+      dut.item.ready.simPublic()
+      dut
+    }
 
   /** a store of one group (as many entries as comparators): a scan is a single read */
   val mOneGroup: MatcherConfig = m.copy(storeCapacity = m.comparators)
   lazy val oneGroup: SimCompiled[Matcher] = {
     println(s"[orb] compiling the Verilator model of Matcher (one group); seed = $seed")
-    CoreSim.simConfig("simWorkspace/matcher1")
-      .compile(withItemPublic(new Matcher(f, HarrisConfig(), OrbDescriptorConfig(), mOneGroup)))
+    compiled("simWorkspace/matcher1", mOneGroup)
   }
 
   /** Drives `stream` (features and frame ends) with random gaps (or none: each item as soon as the last is taken);
@@ -132,7 +129,8 @@ class MatcherSpec extends AnyFunSuite {
       }
       out = RtlMatches(got.toSeq, s.stored.toLong, s.storeOverflow.toLong, s.matches.toLong, s.matchDrops.toLong)
       if (ready >= 1 && stallFor == 0) {
-        // item k was waiting by the time item k - 1 was taken (a clock to reach the matcher's register): k - 1's hold
+        // item k was waiting when item k - 1 was taken (it reaches the matcher's register two clocks after a take at
+        // the earliest: the register empties, then loads): the clocks between the takes are k - 1's hold
         val holds =
           (1 until taken.size).filter(k => waiting(k) <= taken(k - 1) + 2).map(k => (k - 1, taken(k) - taken(k - 1)))
         val over = holds.filter { case (k, h) => h > (if (stream(k).isRight) m.clocksPerFeature else m.frameEndClocks) }
