@@ -67,17 +67,24 @@ class AngleSearch(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) exten
     // is looked up by before / step in a table of this step's own indices (no adder before the lookup)
     val shift = log2Up(step)
     val quotient = before(countWidth - 1 downto shift)
-    val tried = (0 until (1 << quotient.getWidth)).map(q => q * step + step - 1)
-    val table = Vec(tried.map(j => U(if (j < m) tangents(j) else 0L, tWidth bits)))
-    val inRange = Vec(tried.map(j => Bool(j < m)))
+    def tried(q: Int): Int = q * step + step - 1
+    // an index past the octant is never tried (TRY); its entry repeats the one without the quotient's top bit, so
+    // that (m a power of two) the table does not depend on that bit: no entry forced to 0 by it, which synthesis
+    // would make a reset of the multipliers' input register
+    val half = 1 << (quotient.getWidth - 1)
+    def entry(q: Int): Long =
+      if (tried(q) < m) tangents(tried(q)) else if (q >= half && tried(q - half) < m) tangents(tried(q - half)) else 0L
+    val table = Vec((0 until (1 << quotient.getWidth)).map(q => U(entry(q), tWidth bits)))
+    val inRange = Vec((0 until (1 << quotient.getWidth)).map(q => Bool(tried(q) < m)))
     val TRY = n.insert(inRange(quotient) && n(fold.A) =/= 0)
-    val TANGENT = n.insert(table(quotient))
     val p = at(first + 4 * i + 1)
-    // a's copy that feeds only the multipliers (their input registers): loaded with the step's valid, so that it is
-    // no twin of the pipeline's own register of a (which would be merged into it and feed more than multipliers)
+    // a's and T_j's copies that feed only the multipliers (their input registers): loaded with the step's valid
+    // and kept apart, so that neither is merged with a twin (the pipeline's register of a, a bit of T_j equal to
+    // one of `before`) that feeds more than multipliers
     val aForProducts = keptApart(RegNextWhen(n(fold.A), n.isValid))
-    val LO = p.insert(aForProducts(loWidth - 1 downto 0) * p(TANGENT))
-    val HI = p.insert(aForProducts(momentWidth - 1 downto loWidth) * p(TANGENT))
+    val tangent = keptApart(RegNextWhen(table(quotient), n.isValid))
+    val LO = p.insert(aForProducts(loWidth - 1 downto 0) * tangent)
+    val HI = p.insert(aForProducts(momentWidth - 1 downto loWidth) * tangent)
     val s = at(first + 4 * i + 2)
     val PRODUCT = s.insert((s(HI) << loWidth).resize(momentWidth + tWidth) + s(LO).resize(momentWidth + tWidth))
     val c = at(first + 4 * i + 3)

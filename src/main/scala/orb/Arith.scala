@@ -126,6 +126,22 @@ object Arith {
     * a window, whatever the blanking. */
   def lastValid[T <: Data](v: T, n: Int, valid: Bool): Vec[T] = History[T](v, n, valid, null.asInstanceOf[T])
 
+  /** `a > b` (`a >= b` if `orEqual`) in two halves side by side, for a register between them and their combination
+    * (`combineHalves`): no carry through the whole width in one clock. Bit 0: the high halves' `>`, bit 1: their
+    * `===`, bit 2: the low halves' comparison. */
+  def comparedInHalves(a: UInt, b: UInt, orEqual: Boolean): Bits = {
+    val width = a.getWidth max b.getWidth
+    val cut = width / 2
+    val (aw, bw) = (a.resize(width), b.resize(width))
+    val (aHi, bHi) = (aw(width - 1 downto cut), bw(width - 1 downto cut))
+    val (aLo, bLo) = (aw(cut - 1 downto 0), bw(cut - 1 downto 0))
+    val low = if (orEqual) aLo >= bLo else aLo > bLo
+    Cat(low, aHi === bHi, aHi > bHi)
+  }
+
+  /** the comparison of `comparedInHalves` from its halves */
+  def combineHalves(h: Bits): Bool = h(0) || (h(1) && h(2))
+
   /** Arithmetic shift right (floor), written as a slice so that the Verilog has no width-changing shift. */
   def floorShift(v: SInt, n: Int): SInt = if (n == 0) v else v(v.high downto n)
   def floorShift(v: UInt, n: Int): UInt = if (n == 0) v else v(v.high downto n)

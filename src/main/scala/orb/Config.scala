@@ -231,6 +231,9 @@ case class SegmentTestConfig(arc: Int = 9, defaultThreshold: Int = 20) {
 object SegmentTestConfig {
   val radius: Int = 3
 
+  /** copies of the centre's thresholds, each compared with an arc of the circle */
+  val thresholdCopies: Int = 4
+
   /** The 16 circle offsets (dx, dy) in circular order, as OpenCV's FAST (dy > 0 is down). */
   val circle: Seq[(Int, Int)] = Seq(
     (0, -3),
@@ -395,10 +398,12 @@ case class MatcherConfig(
   def groups: Int = storeCapacity / comparators
   def ratioWidth: Int = ratioFracBits + 1
 
-  /** clocks a live feature holds the matcher: the scan, the RAM read (`MatcherConfig.readLatency`), the
-    * popcount, the lane register, the merge levels, the accumulation, the ratio product, one to decide */
+  /** clocks a live feature holds the matcher: the scan (its groups rounded up to pairs), the RAM read
+    * (`MatcherConfig.readLatency`), the popcount, the lane register, the merge levels, the pair, the accumulation's
+    * comparisons and choice, the ratio product, one to decide */
   def clocksPerFeature: Int =
-    groups + MatcherConfig.readLatency + MatcherConfig.popcountStages(this) + 1 + log2Up(comparators) + 1 + 1 + 1
+    (groups + 1) / 2 * 2 + MatcherConfig.readLatency + MatcherConfig.popcountStages(this) + 1 +
+      log2Up(comparators) + 1 + 1 + 1 + 1 + 1
 
   /** an upper bound on the clocks a frame's end item holds the matcher: a live frame's cross-checked entries leave
     * one per clock (storeCapacity), a keyframe's cross-check words are cleared one group per clock, plus the

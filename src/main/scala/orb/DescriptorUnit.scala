@@ -93,6 +93,9 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
 
     /** the newest beat started a row */
     val rowStart = RegNext(startsRow) init False
+
+    /** a copy of `rowStart` (kept apart) for a consumer far from the ring */
+    def rowStartCopy(): Bool = keptApart(RegNext(startsRowCopy()) init False)
     // For the last rows: was the first pixel of the row processed, and in which frame. A corner's rows are good
     // iff the first pixel of its row cy + 22 was processed in its own frame (no fault before it): the model's rule.
     // Kept by the row's count (its low bits name the entry), so a corner finds its row's entry by its own start row,
@@ -245,14 +248,15 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
     // pick and the quadrant's swap, each step with its valid and ready registered (no chain of readies from the
     // decision back to the queue): a step passes a corner every other clock, and corners are an engine's run apart
     val indexedHead = Pipes.halfPipeKeeping(ready.io.pop.m2sPipe().map(indexed))(_.within.toSeq)
-    val head = indexedHead.map(lookupCosSin).halfPipe().map(pickCosSin).halfPipe().map(prepare).halfPipe()
+    val lookedUp = Pipes.halfPipe(indexedHead.map(lookupCosSin), DescriptorUnit.lookupParts)
+    val head = lookedUp.map(pickCosSin).halfPipe().map(prepare).halfPipe()
     val c = head.payload.item
     // rows since the patch was complete (negative: not yet), for the head of the clock before: it is the head's
     // now unless the head left then or a row started since (the rows and their history then moved on)
     val difference = (ring.clock.row - c.startRow).asSInt
     val since = RegNext(difference)
     val computed = RegNext(head.valid && !c.end.now && !head.fire) init False
-    val current = computed && !ring.rowStart
+    val current = computed && !ring.rowStartCopy()
     // the tests on the rows since, registered beside them: the start decision only combines registers
     val early = RegNext(difference.msb) init True
     val late = RegNext(difference.asUInt >= d.slackRows) init False
@@ -270,6 +274,8 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
     val decided = start || refuse
     val rowStarts = ring.startsRowCopy()
     val starts = due && !late && dataOk && free && !decided && !rowStarts
+    // kept apart from its copies below (each a register of the same value), which serve the slots and the counts
+    keptApart(start)
     start := starts
     refuse := due && (late || !dataOk) && !decided
     // a copy of `start` per engine slot (kept apart): each loads its slot's corner
@@ -282,12 +288,15 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
       RegNext(ring.slot.resize(slotWidth + 2).asSInt - since.resize(slotWidth + 2) - S(patchRows, slotWidth + 2 bits))
     val base = Mux(back.msb, back + S(rows, slotWidth + 2 bits), back).asUInt.resize(slotWidth)
     val leftWidth = log2Up(d.slackRows + 1)
-    val rowsLeft = RegNext((S(d.slackRows, leftWidth + 1 bits) - since.resize(leftWidth + 1)).asUInt.resize(leftWidth))
+    val left = (S(d.slackRows, leftWidth + 1 bits) - since.resize(leftWidth + 1)).asUInt.resize(leftWidth)
+    val rowsLeft = RegNext(left)
+    // and whether it is one, registered beside it: a slot's abandonment decision only combines registers
+    val oneRowLeft = RegNext(left === 1) init False
     free := engine.canBegin && !start
     // A frame end leaves when every corner before it has: the engine idle.
     val marker = head.valid && c.end.now && engine.idle
     head.ready := start || refuse || (marker && output.ready)
-    engine.begin(head.payload, base, rowsLeft, start, slotStarts)
+    engine.begin(head.payload, base, rowsLeft, oneRowLeft, start, starts, slotStarts)
   }
 
   /** One corner in the engine, from its start until its feature is handed on: what the front end needs of it (the
@@ -315,8 +324,9 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
     val onLastRow = RegNext(rowsLeft.getAheadValue() === 1) init False
     val onSecondLastRow = RegNext(rowsLeft.getAheadValue() === 2) init False
 
-    /** the slot takes a corner in this clock, and the corner has one row left */
-    val begins, beginsOnLastRow = False
+    /** the slot takes a corner in this clock (a register: see `DescriptorEngine.begin`), and the corner has one row
+      * left */
+    val begins, beginsOnLastRow = Bool()
 
     /** the slot's last group is collected in this clock (unless abandoned in it) */
     val collectsLast = Bool()
@@ -328,10 +338,12 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
       * front end's copies of `advance`, `abandonCopy()` makes one more for another consumer far from the slot. */
     val abandon = Reg(Bool()) init False
     val rowStarts = ring.startsRowCopy()
+    // the slot's own copy of the row start (its row count and abandonment lie with it)
+    val rowStart = ring.rowStartCopy()
     val abandonNext = rowStarts && Mux(
       begins,
       beginsOnLastRow,
-      running && !abandon && !collectsLast && Mux(ring.rowStart, onSecondLastRow, onLastRow)
+      running && !abandon && !collectsLast && Mux(rowStart, onSecondLastRow, onLastRow)
     )
     abandon := abandonNext
     def abandonCopy(): Bool = {
@@ -340,8 +352,6 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
     val abandonCopies = Seq.fill(DescriptorUnit.advanceCopies / DescriptorUnit.advanceCopiesPerAbandon)(abandonCopy())
 
     def begin(c: PreparedCorner, b: UInt, left: UInt): Unit = {
-      begins := True
-      beginsOnLastRow := left === 1
       state := EngineState.RUN
       corner := c.item
       rotation := c.rotation
@@ -377,7 +387,7 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
       state := EngineState.IDLE
     }
 
-    when(ring.rowStart && running) {
+    when(rowStart && running) {
       rowsLeft := rowsLeft - 1
     }
     when(abandon) {
@@ -403,10 +413,22 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
       keptApart(RegInit(False))
     }
 
-    /** A corner starts when `start`; `slotStarts` are copies of it (kept apart), one per slot, each loading that
-      * slot's registers. */
-    def begin(c: PreparedCorner, b: UInt, left: UInt, start: Bool, slotStarts: Seq[Bool]): Unit = {
+    /** A corner starts when `start` (`starts` a clock ahead) with `left` rows left (`oneLeft`: one); `slotStarts`
+      * are copies of it (kept apart), one per slot, each loading that slot's registers. */
+    def begin(
+        c: PreparedCorner,
+        b: UInt,
+        left: UInt,
+        oneLeft: Bool,
+        start: Bool,
+        starts: Bool,
+        slotStarts: Seq[Bool]
+    ): Unit = {
       for ((s, slotStart) <- slots.zip(slotStarts)) {
+        // whether the corner starts in this slot, a register of its own (the slot's turn flag does not change in
+        // the clock after a start: starts are at least two clocks apart)
+        s.begins := keptApart(RegNext(starts && s.takesNext) init False)
+        s.beginsOnLastRow := oneLeft
         when(slotStart) {
           when(s.takesNext) {
             s.begin(c, b, left)
@@ -414,8 +436,8 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
           s.takesNext := !s.takesNext
         }
       }
+      fetch.restartOn(starts)
       when(start) {
-        fetch.restart()
         fetch.tag := nextTag
       }
     }
@@ -513,8 +535,13 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
         * across the chip */
       def counter(): UInt = counting(newCount())
 
-      /** a corner starts: every count from its first group */
-      def restart(): Unit = copies.foreach(_ := 0)
+      /** a corner starts (`starts`, a clock ahead): every count from its first group, each by a copy of the start
+        * of its own (kept apart), so that no one start register drives every count across the front end */
+      def restartOn(starts: Bool): Unit = for (g <- copies) {
+        when(keptApart(RegNext(starts) init False)) {
+          g := 0
+        }
+      }
       val token = Token()
       token.valid := valid
       token.tag := tag
@@ -1052,6 +1079,9 @@ object DescriptorUnit {
   /** parts of the constant tables (the test pattern, cos and sin), each read with a small index into a register
     * before the part is picked */
   val tableParts: Int = 8
+
+  /** slices of the cos/sin lookup's register, each loaded by its own copy of its "empty" flag */
+  val lookupParts: Int = 8
 
   /** copies of the front end's `advance`, each enabling a share of its registers */
   val advanceCopies: Int = 16

@@ -19,6 +19,9 @@ class FrameTracker(c: FrameConfig) extends Component {
   val cw = c.coordWidth
   val inFrame, locked, processed, active, bad, done, widthKnown, lineFaulted, key = Reg(Bool()) init False
   val x, y, lineW, expW, expH = Reg(UInt(cw bits)) init 0
+
+  /** x + 1, kept beside x (loaded wherever x is), so that no incrementer lies before x's loads */
+  val xPlusOne = Reg(UInt(cw bits)) init 1
   val frames, badFrames, badLines = Reg(c.counter()) init 0
 
   /** The comparisons a beat needs, kept in registers beside the state they describe, so that no comparator lies in
@@ -73,6 +76,9 @@ class FrameTracker(c: FrameConfig) extends Component {
   class BeatKind extends Area {
     val opens = keptApart(RegNext(io.pixels.valid && io.pixels.sof) init False)
     val runs = keptApart(RegNext(io.pixels.valid && !io.pixels.sof && (inFrame || starts)) init False)
+
+    /** the beat's end of line, a copy of the input register's (kept apart) */
+    val eol = keptApart(RegNext(io.pixels.eol))
   }
 
   /** the width side (x, the line's width), the height side (y), the frame's flags and counts, the output */
@@ -85,6 +91,9 @@ class FrameTracker(c: FrameConfig) extends Component {
     * at a start `learnt` is also the new frame's `locked`. */
   val learnt = Reg(Bool()) init False
   val learntBeat = keptApart(Reg(Bool()) init False)
+
+  /** copies of `learntBeat` (kept apart; the same next value) for the width and the height side */
+  val learntX, learntY = keptApart(Reg(Bool()) init False)
 
   /** A start of frame closes the frame before it (the same decisions in both copies' terms). */
   val close = new Area {
@@ -116,7 +125,7 @@ class FrameTracker(c: FrameConfig) extends Component {
     /** the line's width is kept (known, or not learnt from a faulty line); else it is learnt as x + 1 */
     val keep = widthKnown || lineFaulted || known.wOver
     val knownAfter = widthKnown || !keep
-    val xPlusOne = x + 1
+    val xPlusOne = FrameTracker.this.xPlusOne
     val learntAfter = !(bad || fault) && (b.eol || (known.xMax && known.xZero && !known.yZero)) &&
       (!processed || done || complete)
   }
@@ -148,7 +157,7 @@ class FrameTracker(c: FrameConfig) extends Component {
     bad := opening.fault
     done := opening.complete
     learntBeat := opening.learntAfter
-    when(b.eol) {
+    when(flagSide.eol) {
       lineFaulted := False
     } otherwise {
       lineFaulted := opening.lineFault
@@ -159,7 +168,7 @@ class FrameTracker(c: FrameConfig) extends Component {
     bad := bad || running.fault
     done := done || running.complete
     learntBeat := running.learntAfter
-    when(b.eol) {
+    when(flagSide.eol) {
       lineFaulted := False
     } otherwise {
       lineFaulted := lineFaulted || running.lineFault
@@ -168,9 +177,9 @@ class FrameTracker(c: FrameConfig) extends Component {
 
   // The width side: x and the line's width, with their comparisons.
   when(xSide.opens) {
-    val l = opening.l
+    val l = learntX
     known.xMax := False
-    when(b.eol) {
+    when(xSide.eol) {
       // the next line, x = 0: the width is the locked one, or learnt as 1
       widthKnown := True
       lineW := Mux(l, lineW, U(1, cw bits))
@@ -182,6 +191,7 @@ class FrameTracker(c: FrameConfig) extends Component {
       known.wOver := l && known.lineW0
       known.wLast := !l || known.lineW1
       x := 0
+      xPlusOne := 1
       known.xZero := True
     } otherwise {
       // x = 1 on the first line, against the locked width or the limits
@@ -197,11 +207,12 @@ class FrameTracker(c: FrameConfig) extends Component {
       known.wOver := l && (known.lineW0 || known.lineW1)
       known.wLast := l && known.lineW2
       x := 1
+      xPlusOne := 2
       known.xZero := False
     }
   }
   when(xSide.runs) {
-    when(b.eol) {
+    when(xSide.eol) {
       // the next line: x = 0 against the (possibly learnt) width
       val keep = running.keep
       widthKnown := running.knownAfter
@@ -218,12 +229,14 @@ class FrameTracker(c: FrameConfig) extends Component {
       known.wOver := running.knownAfter && keep && known.lineW0
       known.wLast := running.knownAfter && Mux(keep, known.lineW1, known.xZero)
       x := 0
+      xPlusOne := 1
       known.xZero := True
       known.xMax := False
     } otherwise {
       // the next pixel of the line: x one more (saturating at maxWidth)
       when(!known.xMax) {
         x := running.xPlusOne
+        xPlusOne := running.xPlusOne + 1
         known.remW := known.remW - 1
         known.wOver := known.remW <= 1
         known.wLast := known.remW === 2
@@ -235,9 +248,9 @@ class FrameTracker(c: FrameConfig) extends Component {
 
   // The height side: y and its comparisons.
   when(ySide.opens) {
-    val l = opening.l
+    val l = learntY
     known.yMax := False
-    when(b.eol) {
+    when(ySide.eol) {
       // the next line, y = 1
       y := 1
       known.remH := Mux(l, y - 1, U(c.maxHeight - 1, cw bits)).resize(remWidth).asSInt
@@ -256,7 +269,7 @@ class FrameTracker(c: FrameConfig) extends Component {
       known.yTwo := False
     }
   }
-  when(ySide.runs && b.eol) {
+  when(ySide.runs && ySide.eol) {
     // y one more (saturating at maxHeight)
     when(!known.yMax) {
       y := y + 1
@@ -273,6 +286,8 @@ class FrameTracker(c: FrameConfig) extends Component {
   }
   // `learnt` follows `learntBeat` (the same next value, a separate register for the frame's fields)
   learnt := learntBeat.getAheadValue()
+  learntX := learntBeat.getAheadValue()
+  learntY := learntBeat.getAheadValue()
 
   // The fault counters count a clock late: their increments are registered, so no adder waits for the checks.
   val lineFaults = RegNext(

@@ -165,14 +165,21 @@ class HarrisDetector(f: FrameConfig, h: HarrisConfig, columnRows: Int, stages: H
         ) // win(j)(i): column x - j, row index i + 1
       def px(dx: Int, dy: Int): UInt = win(4 - dx)(3 - dy) // dy > 0 is down, a newer row
       // centre + t and centre - t, registered a beat ahead from the pixel that becomes the centre (the window
-      // advances with valid pixels), so that no adder lies before the 32 comparisons
+      // advances with valid pixels), so that no adder lies before the 32 comparisons; a copy of each per arc of
+      // the circle (kept apart), so that no one register feeds all 16 comparisons
       val t = control.segmentThreshold
       val upcoming = px(1, 0)
-      val brighterThan = RegNextWhen(upcoming +^ t, compareNode.isValid)
-      val darkerThan = RegNextWhen(upcoming.intoSInt.resize(10) - t.intoSInt.resize(10), compareNode.isValid)
+      val copies = SegmentTestConfig.thresholdCopies
+      val brighterThan = Seq.fill(copies)(Pipes.keptApart(RegNextWhen(upcoming +^ t, compareNode.isValid)))
+      val darkerThan = Seq.fill(copies)(
+        Pipes.keptApart(RegNextWhen(upcoming.intoSInt.resize(10) - t.intoSInt.resize(10), compareNode.isValid))
+      )
       val ring = SegmentTestConfig.circle.map { case (dx, dy) => px(dx, dy) }
-      val BRIGHTER = compareNode.insert(Vec(ring.map(_ > brighterThan)).asBits)
-      val DARKER = compareNode.insert(Vec(ring.map(_.intoSInt.resize(10) < darkerThan)).asBits)
+      def arcOf(i: Int): Int = i * copies / ring.size
+      val BRIGHTER = compareNode.insert(Vec(ring.zipWithIndex.map { case (p, i) => p > brighterThan(arcOf(i)) }).asBits)
+      val DARKER = compareNode.insert(
+        Vec(ring.zipWithIndex.map { case (p, i) => p.intoSInt.resize(10) < darkerThan(arcOf(i)) }).asBits
+      )
       def anyArc(b: Bits): Bool = (0 until 16).map(s => (0 until sc.arc).map(k => b((s + k) % 16)).andR).orR
       val PASSES = arcNode.insert(anyArc(arcNode(BRIGHTER)) || anyArc(arcNode(DARKER)))
     }
@@ -281,18 +288,9 @@ class HarrisDetector(f: FrameConfig, h: HarrisConfig, columnRows: Int, stages: H
     val w = at(stages.window)
     val INSIDE_X = w.insert(inside(w(PIXEL).x, geometry.width))
     val INSIDE_Y = w.insert(inside(w(PIXEL).y, geometry.height))
-    // The comparisons with the centre in two halves side by side (no carry through a whole score between two
-    // registers), registered: whether the high halves are greater and equal, and the low halves' comparison; they
-    // are combined a node later, and the tests combined into the corner's flag.
-    def halves(a: UInt, b: UInt, orEqual: Boolean): Bits = {
-      val width = a.getWidth max b.getWidth
-      val cut = width / 2
-      val (aw, bw) = (a.resize(width), b.resize(width))
-      val (aHi, bHi) = (aw(width - 1 downto cut), bw(width - 1 downto cut))
-      val (aLo, bLo) = (aw(cut - 1 downto 0), bw(cut - 1 downto 0))
-      val low = if (orEqual) aLo >= bLo else aLo > bLo
-      Cat(low, aHi === bHi, aHi > bHi)
-    }
+    // The comparisons with the centre in two halves side by side, registered, combined a node later, and the tests
+    // combined into the corner's flag.
+    def halves(a: UInt, b: UInt, orEqual: Boolean): Bits = Arith.comparedInHalves(a, b, orEqual)
     val FLAGS = n.insert(Vec(p.active, n(INSIDE_X), n(INSIDE_Y)))
     val COMPARED = n.insert(
       Vec(Seq(halves(centre, control.threshold, orEqual = false)) ++ earlier.map(halves(centre, _, orEqual = false)) ++
@@ -300,7 +298,7 @@ class HarrisDetector(f: FrameConfig, h: HarrisConfig, columnRows: Int, stages: H
     )
     val CENTRE = n.insert(centre)
     val c = at(stages.combine)
-    val TESTS = c.insert(c(FLAGS).asBits.andR && c(COMPARED).map(v => v(0) || (v(1) && v(2))).reduce(_ && _))
+    val TESTS = c.insert(c(FLAGS).asBits.andR && c(COMPARED).map(Arith.combineHalves).reduce(_ && _))
     // the corner's position, the centre's, registered with the tests
     val CX = n.insert(p.x - reach)
     val CY = n.insert(p.y - reach)

@@ -13,7 +13,8 @@ import orb.Pipes.keptApart
   * store, `comparators` entries per clock: lane l holds entries l, l + P, l + 2P, ... in its own RAM, so a scan
   * reads one group of P entries per clock. Each lane computes the Hamming distance (xor, popcount tree pipelined
   * every `popcountLevelsPerStage` adder levels); the lanes are merged into best (first on ties) and second best,
-  * accumulated over the groups. The feature is held (input not ready) for `MatcherConfig.clocksPerFeature` clocks.
+  * consecutive groups merged in pairs, and the pairs accumulated. The feature is held (input not ready) for
+  * `MatcherConfig.clocksPerFeature` clocks.
   *
   * Cross-check (mutual nearest neighbours, OpenCV's BFMatcher crossCheck): every entry keeps the best live
   * feature of the frame so far (distance, position, and whether that live feature's own best is this entry). A
@@ -95,13 +96,18 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
 
   val stored = Reg(UInt(countWidth bits)) init 0
   val storedNow = Mux(frame.first && isKey, U(0, countWidth bits), stored)
-  // registered: the store only changes while a keyframe loads, a clock or more before a scan starts (its end
-  // item keeps the matcher busy for at least a clock); so are the comparisons a scan makes with the count of groups:
-  // those it starts with from `stored`, as `groups`, those it uses from its second clock on from `groups`
-  val groups = RegNext(groupOf(stored +^ (P - 1), groupWidth + 1)) init 0
+  // stored + 1 in a register beside it: the count changes only as a keyframe feature is taken, and items are at
+  // least two clocks apart (`halfPipe`), so the next one finds it up to date (no incrementer after the handshake)
+  val storedPlusOne = RegNext(stored + 1) init 1
+  // The groups a scan reads: enough for the stored entries, rounded up to an even count (the accumulation takes
+  // them in pairs; a group beyond the store holds no real entry: with an odd number of groups in the store, its
+  // address lies past the RAMs' last word, and what they read there is ignored). Registered: the store only
+  // changes while a keyframe loads, a clock or more before a scan starts (its end item keeps the matcher busy for
+  // at least a clock); so are the comparisons a scan makes with the count of groups: those it starts with from
+  // `stored`, those it uses from its second clock on from `groups`
+  val groups = RegNext(groupOf(stored +^ (2 * P - 1), groupWidth + 1) & ~U(1, groupWidth + 1 bits)) init 0
   val groupsCompared = new Area {
     val zero = RegNext(stored === 0) init True
-    val one = RegNext(stored =/= 0 && stored <= P) init False
     val lessOne = RegNext((groups - 1).resize(groupWidth)) init 0
     val lessTwo = RegNext(groups - 2) init 0
   }
@@ -140,7 +146,7 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
     val overflow = keyFeature && !room
     when(item.fire && frame.first && isKey) { stored := 0 }
     when(keyFeature && room) {
-      stored := storedNow + 1
+      stored := Mux(frame.first && isKey, U(1, countWidth bits), storedPlusOne)
     }
     // an appended feature that becomes the weakest: decided as it is taken into a register, written a clock later
     // (the next item is taken two clocks after at the earliest: `halfPipe`), so no score comparison drives the
@@ -188,7 +194,7 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
       activity := Activity.SCAN
       group := 0
       issuing := !groupsCompared.zero
-      lastGroup := groupsCompared.one
+      lastGroup := False // two groups or none
     }
     // copied every clock while idle (an enable from one register, not from the handshake): the feature that starts
     // the scan is the last one copied
@@ -311,16 +317,21 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
     val read = Delay(rescan.issuing, crossLatency + 1, init = False)
     val base = Delay(rescan.group.resize(countWidth) |<< log2Up(P), crossLatency + 1)
     val first = Delay(rescan.issuing && rescan.group === 0, crossLatency + 1, init = False)
-    // the group's lowest score, the first lane on ties, in two registered steps: every pair of lanes compared side
-    // by side, then the lane below every lane before it and not above any after it picked (no comparison waits
-    // for a choice, no choice for a comparison)
-    val values = scores.map(RegNext(_))
-    val below = (0 until P).map(i => (0 until P).map(j => if (i == j) False else RegNext(scores(i) < scores(j))))
-    val picks = Vec((0 until P).map { i =>
-      ((0 until i).map(j => below(i)(j)) ++ (i + 1 until P).map(j => !below(j)(i))).foldLeft(True)(_ && _)
-    })
+    // the group's lowest score, the first lane on ties, in four registered steps: every pair of lanes compared side
+    // by side, in halves (no carry through a whole score in one clock), the halves combined, the lane below every
+    // lane before it and not above any after it picked, its score selected (no comparison waits for a choice, no
+    // choice for a comparison). Only the pairs of a lane with an earlier one are compared: the picks need no other.
+    val values = scores.map(s => Delay(s, 3))
+    def below(i: Int, j: Int): Bool = {
+      require(j < i)
+      RegNext(Arith.combineHalves(RegNext(Arith.comparedInHalves(scores(j), scores(i), orEqual = false))))
+    }
+    val belowEarlier = (0 until P).map(i => (0 until i).map(j => below(i, j)))
+    val picks = RegNext(Vec((0 until P).map { i =>
+      ((0 until i).map(j => belowEarlier(i)(j)) ++ (i + 1 until P).map(j => !belowEarlier(j)(i))).foldLeft(True)(_ && _)
+    }))
     val low = RegNext(MuxOH.or(picks, values))
-    val levels = 2
+    val levels = 4
     val index = Delay(base, levels) | RegNext(OHToUInt(picks)).resize(countWidth)
     val valid = Delay(read, levels, init = False)
     val firstD = Delay(first, levels, init = False)
@@ -394,11 +405,12 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
     /** best of two (the left, earlier entries, on ties) and the second smallest distance of the union. As a best is
       * never above its second, the second is the smaller of the loser and the winner's own second: the three
       * comparisons are side by side, none waits for another. */
-    def merge(a: Best, b: Best): Best = {
+    def merge(a: Best, b: Best): Best =
+      select(a, b, takes(a, b), b.second < a.best.distance, a.second < b.best.distance)
+
+    /** `merge` from its three comparisons */
+    def select(a: Best, b: Best, takeB: Bool, bSecondFirst: Bool, aSecondFirst: Bool): Best = {
       val r = Best()
-      val takeB = takes(a, b)
-      val bSecondFirst = b.second < a.best.distance
-      val aSecondFirst = a.second < b.best.distance
       r.best := Mux(takeB, b.best, a.best)
       r.second := Mux(takeB, Mux(bSecondFirst, b.second, a.best.distance), Mux(aSecondFirst, a.second, b.best.distance))
       r
@@ -420,22 +432,44 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
     val mergeLevels = log2Up(P)
     val mergedValid = Delay(outValid, mergeLevels, init = False)
     val mergedGroup = Delay(outGroup, mergeLevels)
-    // The running best starts as "none" when a scan starts (long before its first group arrives): the first group
+    // Consecutive groups merged in pairs (an even group, registered, with the odd one after it): the running best
+    // then takes a pair every other clock, in two steps, its comparisons registered before its choice, so that no
+    // comparison and choice of its own loop share a clock. The keys follow a clock behind, as in the tree.
+    val odd = mergedGroup.lsb
+    // a scan's groups come back to back: the odd group comes the clock after the even one, its key a clock later
+    val held = RegNext(merged)
+    val heldKey = RegNext(mergedKey)
+    val pairValid = RegNext(mergedValid && odd) init False
+    val pairLast = RegNext(mergedValid && mergedGroup === groupsCompared.lessOne) init False
+    val pair = RegNext(merge(held, merged))
+    val pairTakes = RegNext(takes(held, merged))
+    val pairKey = RegNext(Mux(pairTakes, mergedKey, heldKey))
+    // The running best starts as "none" when a scan starts (long before its first pair arrives): the first pair
     // then takes it over in the same merge as every later one (its entry 0 is real), no choice of the first.
     val acc = Reg(Best())
-    when(scan.start) {
+    val accKey = Reg(Key())
+    // a clock after the start, from a register (no handshake decides the running best's enables); the last scan's
+    // result has been pushed by then
+    when(RegNext(scan.start) init False) {
       acc.best.distance := none
       acc.best.index := 0
       acc.best.wins := False
       acc.second := none
     }
-    when(mergedValid) { acc := merge(acc, merged) }
-    // the best entry's position, a clock behind `acc`
-    val accKey = Reg(Key())
-    val accTakes = RegNext(mergedValid && takes(acc, merged)) init False
-    when(accTakes) { accKey := mergedKey }
-    val accValid = RegNext(mergedValid) init False
-    val lastGroup = RegNext(mergedValid && mergedGroup === groupsCompared.lessOne) init False
+    val choose = new Area {
+      val valid = RegNext(pairValid) init False
+      val last = RegNext(pairValid && pairLast) init False
+      val candidate = RegNext(pair)
+      val takeB = RegNext(takes(acc, pair))
+      val bSecondFirst = RegNext(pair.second < acc.best.distance)
+      val aSecondFirst = RegNext(acc.second < pair.best.distance)
+    }
+    when(choose.valid) {
+      acc := select(acc, choose.candidate, choose.takeB, choose.bSecondFirst, choose.aSecondFirst)
+    }
+    // the pair's key is a clock behind the pair: beside the choice
+    when(choose.valid && choose.takeB) { accKey := pairKey }
+    val lastGroup = RegNext(choose.last) init False
   }
 
   // A feature's scan is over when its last group has been accumulated: accept or not, then the next feature.

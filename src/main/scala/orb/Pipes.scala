@@ -45,7 +45,8 @@ object Pipes {
   }
 
   /** `in.halfPipe()` (a beat every other clock, the ready from the valid register) whose payload fields `kept` stay
-    * apart as registers (copies of one value that drive different logic) */
+    * apart as registers (copies of one value that drive different logic); the payload loaded by a copy of the
+    * "empty" flag of its own (the valid register drives the handshake only) */
   def halfPipeKeeping[T <: Data](in: Stream[T])(kept: T => Seq[Data]): Stream[T] = {
     val out = Stream(cloneOf(in.payload))
     val valid = RegInit(False)
@@ -57,7 +58,8 @@ object Pipes {
     when(out.fire) {
       valid := False
     }
-    when(!valid) {
+    val empty = keptApart(RegNext(!valid.getAheadValue()) init True)
+    when(empty) {
       payload := in.payload
     }
     in.ready := !valid
