@@ -91,10 +91,7 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
     slot := slotNext
     val clock = new RowClock(f, startsRow, startsFrame)
 
-    /** the newest beat started a row */
-    val rowStart = RegNext(startsRow) init False
-
-    /** a copy of `rowStart` (kept apart) for a consumer far from the ring */
+    /** the newest beat started a row: a copy (kept apart) for each consumer, each beside it */
     def rowStartCopy(): Bool = keptApart(RegNext(startsRowCopy()) init False)
     // For the last rows: was the first pixel of the row processed, and in which frame. A corner's rows are good
     // iff the first pixel of its row cy + 22 was processed in its own frame (no fault before it): the model's rule.
@@ -324,8 +321,8 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
     val onLastRow = RegNext(rowsLeft.getAheadValue() === 1) init False
     val onSecondLastRow = RegNext(rowsLeft.getAheadValue() === 2) init False
 
-    /** the slot takes a corner in this clock (a register: see `DescriptorEngine.begin`), and the corner has one row
-      * left */
+    /** the slot takes a corner in this clock (a register: see `DescriptorEngine.begin`); whether the head has one
+      * row left (every clock: it means the taken corner's only while `begins`) */
     val begins, beginsOnLastRow = Bool()
 
     /** the slot's last group is collected in this clock (unless abandoned in it) */
@@ -515,6 +512,7 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
       /** the slot of the corner fetched last */
       val tag = RegInit(True)
       private val copies = scala.collection.mutable.ArrayBuffer[UInt]()
+      private var restarted = false
       private def newCount(): UInt = Reg(UInt(log2Up(groups + 1) bits)) init groups
       val group = newCount()
       val valid = group < groups
@@ -533,13 +531,19 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
 
       /** a copy of `group` kept apart, its next value formed beside it: no one next-value logic drives every copy
         * across the chip */
-      def counter(): UInt = counting(newCount())
+      def counter(): UInt = {
+        require(!restarted, "a count made after `restartOn` would never restart")
+        counting(newCount())
+      }
 
       /** a corner starts (`starts`, a clock ahead): every count from its first group, each by a copy of the start
         * of its own (kept apart), so that no one start register drives every count across the front end */
-      def restartOn(starts: Bool): Unit = for (g <- copies) {
-        when(keptApart(RegNext(starts) init False)) {
-          g := 0
+      def restartOn(starts: Bool): Unit = {
+        restarted = true
+        for (g <- copies) {
+          when(keptApart(RegNext(starts) init False)) {
+            g := 0
+          }
         }
       }
       val token = Token()

@@ -77,7 +77,7 @@ class FrameTracker(c: FrameConfig) extends Component {
     val opens = keptApart(RegNext(io.pixels.valid && io.pixels.sof) init False)
     val runs = keptApart(RegNext(io.pixels.valid && !io.pixels.sof && (inFrame || starts)) init False)
 
-    /** the beat's end of line, a copy of the input register's (kept apart) */
+    /** the beat's end of line, a copy of the input register's (kept apart; the output side reads none) */
     val eol = keptApart(RegNext(io.pixels.eol))
   }
 

@@ -100,8 +100,8 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
   // least two clocks apart (`halfPipe`), so the next one finds it up to date (no incrementer after the handshake)
   val storedPlusOne = RegNext(stored + 1) init 1
   // The groups a scan reads: enough for the stored entries, rounded up to an even count (the accumulation takes
-  // them in pairs; a group beyond the store holds no real entry: with an odd number of groups in the store, its
-  // address lies past the RAMs' last word, and what they read there is ignored). Registered: the store only
+  // them in pairs; a group beyond the stored entries holds none that is real (`index < stored`): stale entries, or
+  // with an odd number of groups in the capacity a word past the RAMs' last, read and ignored). Registered: the store only
   // changes while a keyframe loads, a clock or more before a scan starts (its end item keeps the matcher busy for
   // at least a clock); so are the comparisons a scan makes with the count of groups: those it starts with from
   // `stored`, those it uses from its second clock on from `groups`
