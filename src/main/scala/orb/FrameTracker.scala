@@ -125,7 +125,6 @@ class FrameTracker(c: FrameConfig) extends Component {
     /** the line's width is kept (known, or not learnt from a faulty line); else it is learnt as x + 1 */
     val keep = widthKnown || lineFaulted || known.wOver
     val knownAfter = widthKnown || !keep
-    val xPlusOne = FrameTracker.this.xPlusOne
     val learntAfter = !(bad || fault) && (b.eol || (known.xMax && known.xZero && !known.yZero)) &&
       (!processed || done || complete)
   }
@@ -217,13 +216,13 @@ class FrameTracker(c: FrameConfig) extends Component {
       val keep = running.keep
       widthKnown := running.knownAfter
       when(!keep) {
-        lineW := running.xPlusOne
+        lineW := xPlusOne
         known.lineW0 := False
         known.lineW1 := known.xZero
         known.lineW2 := x === 1
         known.lineWm1 := x
       }
-      known.remW := Mux(running.knownAfter, Mux(keep, lineW, running.xPlusOne), U(c.maxWidth, cw bits))
+      known.remW := Mux(running.knownAfter, Mux(keep, lineW, xPlusOne), U(c.maxWidth, cw bits))
         .resize(remWidth)
         .asSInt
       known.wOver := running.knownAfter && keep && known.lineW0
@@ -235,8 +234,8 @@ class FrameTracker(c: FrameConfig) extends Component {
     } otherwise {
       // the next pixel of the line: x one more (saturating at maxWidth)
       when(!known.xMax) {
-        x := running.xPlusOne
-        xPlusOne := running.xPlusOne + 1
+        x := xPlusOne
+        xPlusOne := xPlusOne + 1
         known.remW := known.remW - 1
         known.wOver := known.remW <= 1
         known.wLast := known.remW === 2
