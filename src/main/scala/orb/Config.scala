@@ -579,7 +579,7 @@ case class OrbConfig(
     else Some(s"W = $w: $perBand corners per band of $ch rows need ${perBand * s} clocks, the band has ${ch * w}")
     // A band's winners leave one per `FeatureBudget.winnerClocks` from its emission row: done before the band two
     // later (same bank) gets its first corner, and before the band's first row needs its orientation.
-    val emitting = (perBand + 2) * FeatureBudget.winnerClocks
+    val emitting = FeatureBudget.emissionClocks(perBand, budget.perCell)
     val emitRows =
       (budget.cellHeight - 1) min (OrbDescriptorConfig.patchRadius - budget.cellHeight - budget.emitRowOffset)
     val emission = if (emitting < emitRows.toLong * w) None

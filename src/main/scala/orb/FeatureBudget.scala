@@ -8,12 +8,12 @@ import orb.Pipes.keptApart
   * (`BudgetConfig` states the rule, `orb.model.BudgetModel` is its specification).
   *
   * Cells: the corners of a band of `cellHeight` rows go into one of two banks (bands alternate), one list per cell
-  * of its `perCell` strongest so far, sorted by rank (`BudgetModel.rank`; first in raster order on ties); a corner
-  * that does not make its cell's list, or that one pushes out, is deselected at once. When the first pixel of row
-  * (band end + `emitRowOffset`) is processed, the band is complete: its lists leave, one winner per clock, in raster
-  * order (the smallest row offset, then column, of what is left), and the bank is empty again long before the band
-  * two later needs it. Each winner's score level goes into the frame's histogram and is checked against the cut and
-  * the frame's target; it leaves on `selected` or is deselected.
+  * of its `perCell` strongest so far (`BudgetModel.rank`; the first in raster order on ties), kept in arrival order;
+  * a corner that does not make its cell's list, or that one pushes out, is deselected at once. When the first pixel
+  * of row (band end + `emitRowOffset`) is processed, the band is complete: its lists leave, a winner every
+  * `FeatureBudget.winnerClocks`, in raster order (the earliest of the lists' oldest entries), and the bank is empty
+  * again long before the band two later needs it. Each winner's score level goes into the frame's histogram and is
+  * checked against the cut and the frame's target; it leaves on `selected` or is deselected.
   *
   * Frame end (after the frame's corners): winners still in a bank (a fault cut their band) are counted as dropped;
   * after a good frame the histogram (a RAM word per level) is walked from the top level down, one level per clock, to
@@ -78,13 +78,17 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
     highest(score.asBools.toSeq)._2.resize(log2Up(h.scoreWidth))
   }
 
-  /** The leading one's position and the `fb` bits after it (`BudgetModel.levelOf`), from the position. */
-  def levelOf(score: UInt, lead: UInt, fb: Int, width: Int): UInt =
+  /** The `fb` bits after a score's leading one (`BudgetModel.levelOf`), first step: the score shifted down by the
+    * leading one's position without its last two bits (a shift by a multiple of 4), `fb + 3` bits kept. */
+  def afterLeadCoarse(score: UInt, lead: UInt, fb: Int): UInt = {
+    val byFours = lead(lead.high downto 2) @@ U(0, 2 bits)
+    ((score @@ U(0, fb bits)) >> byFours).resize(fb + 3)
+  }
+
+  /** Second step: the rest of the shift (the position's last two bits), then the level: the position and the bits. */
+  def rankFrom(coarse: UInt, lead: UInt, fb: Int, width: Int): UInt =
     if (fb == 0) lead.resize(width)
-    else {
-      val frac = ((score @@ U(0, fb bits)) >> lead).resize(fb)
-      (lead @@ frac).resize(width)
-    }
+    else (lead @@ (coarse >> lead(1 downto 0)).resize(fb)).resize(width)
 
   /** Corners kept per cell in this frame's line length: `OrbConfig.perCellFor`, from its steps, into a register; the
     * width registered first on the budget's side (it changes only between frames, and comes from the frame tracker,
@@ -97,34 +101,41 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
     val now = RegNext(fromSteps) init 0
   }
 
+  /** Every list in arrival order (raster order within its cell), the newest at place 0 and the place that leaves
+    * first, `k - 1`, at the end. */
   val banks = Vec.fill(2)(Vec.fill(cells)(Vec.fill(k)(Reg(Entry()))))
   for (bank <- banks; cell <- bank; e <- cell) e.valid.init(False)
 
-  // A corner into its cell's list: every list compares and updates itself, beside its own registers, so no list is
-  // fetched through a multiplexer and nothing is forwarded. The corner is ranked on the way in (two registered
-  // steps), then registered with its list decoded (one-hot), one copy of it per bank and one of its rank per list
-  // (kept apart); in the next clock every place of every list compares its rank with the corner's (`aheads`: valid
-  // and ranked at least as high, a prefix of the sorted list) into registers; in the clock after, the corner's list
-  // is updated: the entries ahead stay, the corner takes the first place after them, the rest move down one.
-  // Corners are at least two clocks apart after the 3x3 suppression, so a corner compares with its list after the
-  // one before it has updated it.
+  // A corner into its cell's list. Each list decides beside its own registers, and each place is loaded only from
+  // the place before it (place 0 from the corner), so no list is read through a multiplexer and every place has one
+  // source. The corner is ranked on the way in (three registered steps), then registered with its list decoded
+  // (one-hot), one copy of it per bank and one of its rank per list (kept apart). In the next clock each list
+  // compares into registers: the corner with every place (does it enter?) and its places with each other (which
+  // place would a full list give up?). In the clock after, the corner enters at place 0 and the places up to the
+  // freed one move one place on: the first empty place of a list that is not full, else the weakest (ranked
+  // lowest, the newest of those ranked lowest). Corners are at least two clocks apart after the 3x3 suppression, so
+  // a corner compares with its list after the one before it has updated it.
   val intake = new Area {
     val cellWidth = log2Up(cells max 2)
     val lists = for (bank <- 0 until 2; cell <- 0 until cells) yield (bank, cell)
 
-    /** the corner's rank, in two registered steps (its leading one, then the bits after it) */
+    /** the corner's rank, in three registered steps (its leading one, a shift by the position's multiple of 4, the
+      * rest of the shift) */
     val ranked = new Area {
       val first = io.corners.stage()
       val lead = RegNext(leadOf(io.corners.score))
-      val corner = first.stage()
-      val rank = RegNext(levelOf(first.score, lead, b.rankFracBits, rankWidth))
+      val second = first.stage()
+      val secondLead = RegNext(lead)
+      val coarse = RegNext(afterLeadCoarse(first.score, lead, b.rankFracBits))
+      val corner = second.stage()
+      val rank = RegNext(rankFrom(coarse, secondLead, b.rankFracBits, rankWidth))
     }
     val bankIn = ranked.corner.y(b.bandShift downto b.bandShift)
     val cellIn = ranked.corner.x(b.cellShift, cellWidth bits)
     val arriving = new Area {
       val valid = RegNext(ranked.corner.valid) init False
 
-      /** the corner and its rank, one copy per bank (kept apart): each feeds the comparisons of its bank's lists */
+      /** the corner and its rank, one copy per bank (kept apart): each feeds place 0 of its bank's lists */
       val corners = (0 until 2).map { _ =>
         keptApart(RegNext(ranked.corner.payload))
       }
@@ -153,61 +164,72 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
         /** the list places in use in this line length (it changes only between frames), registers of the list's
           * own (kept apart: one register would reach every list), from the registered count per cell */
         val inUse = (0 until k).map(i => keptApart(RegNext(U(i) < perCell.now) init False))
-        // two copies (kept apart): one for whether place i stays, one for whether place i + 1 takes the corner
-        val aheads = Seq.fill(2)(Vec((0 until k).map { i =>
-          keptApart(RegNext(list(i).valid && list(i).rank >= rank && inUse(i)))
-        }))
-        val stays = aheads(0)
-        val takesAfter = aheads(1)
-        val full = RegNext((0 until k).map(i => !inUse(i) || list(i).valid).andR)
 
-        /** the corner's list, one enable per place and part of the entry (kept apart: the score, which only the
-          * emission reads, and the rest, which the comparisons read): no one enable drives a whole list or entry */
+        /** the corner enters: a place in use is empty, or ranked below it (the corner is the newest: a tie keeps
+          * the entry) */
+        val admits = RegNext((0 until k).map(i => inUse(i) && (!list(i).valid || rank > list(i).rank)).orR) init False
+
+        /** place a ranked above place b, for a newer than b (a < b) */
+        val above = (for (a <- 0 until k; b <- a + 1 until k) yield (a, b) -> (list(a).rank > list(b).rank)).toMap
+
+        /** the place a full list gives up: every newer place ranked above it, no older one in use ranked below it */
+        val weakest = (0 until k).map { j =>
+          val newer = (0 until j).map(a => above((a, j)))
+          val older = (j + 1 until k).map(b => !inUse(b) || !above((j, b)))
+          RegNext((inUse(j) +: (newer ++ older)).reduce(_ && _)) init False
+        }
+        val full = RegNext((0 until k).map(i => !inUse(i) || list(i).valid).andR) init False
+
+        /** the corner's list, one copy per place and part of the entry (kept apart: each half of the score, which
+          * only the emission reads, and the rest): no one register enables a whole list or entry */
         val writes = (0 until k).map { _ =>
-          Seq.fill(2) {
+          Seq.fill(3) {
             keptApart(RegNext(arriving.selects(l)) init False)
           }
         }
+
+        /** the list's band is being emitted (set and cleared by the emission): its entries move on whenever the
+          * place that leaves first is empty */
+        val emptying = keptApart(Reg(Bool()) init False)
+        val advances = emptying && !list(k - 1).valid
         val fresh = Entry()
-        fresh.valid := True
+        fresh.valid := !emptying
         fresh.xOffset := compared.corners(bank).x.resize(b.cellShift)
         fresh.yOffset := compared.corners(bank).y.resize(b.bandShift)
         fresh.score := compared.corners(bank).score
         fresh.rank := compared.ranks(l)
-        // Entries ahead of the corner stay, the corner takes the first place after them, the rest move down one; a
-        // place beyond the line length's is emptied (only the valid flags are read of an empty entry).
-        val updated = Vec.fill(k)(Entry())
-        for (i <- 0 until k) {
-          val e = updated(i)
-          if (i == 0) e := fresh
-          else {
-            e := list(i - 1)
-            when(takesAfter(i - 1)) { e := fresh }
-          }
-          when(stays(i)) { e := list(i) }
-          when(!inUse(i)) { e.valid := False }
+        // place i moves on when the freed place is i or after it: in a list that is not full the first empty one
+        // (the places before it are full), in a full one the weakest
+        val freedFrom = (0 until k).map { i =>
+          if (i == 0) True else Mux(full, weakest.drop(i).orR, list(i - 1).valid)
         }
+        val scoreHalf = h.scoreWidth / 2
         for (i <- 0 until k) {
-          when(writes(i)(0)) {
-            list(i).score := updated(i).score
+          val moves = writes(i).map(w => (w && admits && freedFrom(i)) || advances)
+          val from = if (i == 0) fresh else list(i - 1)
+          when(moves(0)) {
+            list(i).score(scoreHalf - 1 downto 0) := from.score(scoreHalf - 1 downto 0)
           }
-          when(writes(i)(1)) {
-            list(i).valid := updated(i).valid
-            list(i).xOffset := updated(i).xOffset
-            list(i).yOffset := updated(i).yOffset
-            list(i).rank := updated(i).rank
+          when(moves(1)) {
+            list(i).score(h.scoreWidth - 1 downto scoreHalf) := from.score(h.scoreWidth - 1 downto scoreHalf)
+          }
+          when(moves(2)) {
+            list(i).valid := from.valid
+            list(i).xOffset := from.xOffset
+            list(i).yOffset := from.yOffset
+            list(i).rank := from.rank
           }
         }
 
         /** the corner is deselected here: its list keeps k entries, the corner itself or the weakest it pushes out */
-        val deselects = writes.head(1) && full
+        val deselects = writes.head(2) && full
       }
 
     /** a corner deselected in this clock */
     val deselect = perList.map(_.deselects).orR
 
     /** a corner on its way into a list */
-    val busy = ranked.first.valid || ranked.corner.valid || arriving.valid || compared.valid
+    val busy = ranked.first.valid || ranked.second.valid || ranked.corner.valid || arriving.valid || compared.valid
   }
 
   // A band is complete at the first pixel of row (band end + emitRowOffset); its winners leave in raster order.
@@ -234,10 +256,23 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
       bank := band(0 downto 0)
       bandY := (band @@ U(0, b.bandShift bits)).resize(f.coordWidth)
     }
-    // The choice reads the band's lists in their bank, which is empty again (every winner left) before the band two
-    // later, which shares it, gets its first corner (`OrbConfig.budgetService` checks that the emission is that
-    // fast). The first choice starts a clock after the trigger, when the bank is chosen.
-    val choosing = RegNext(trigger) init False
+    // The band's lists move their entries on towards their last place while it is empty, so each list's next in
+    // raster order is at its last place (`k - 1` moves at most after the trigger, one after a winner left it). The
+    // bank is empty again (every winner left) before the band two later, which shares it, gets its first corner
+    // (`OrbConfig.budgetService` checks that the emission is that fast).
+    for (((bk, _), l) <- intake.lists.zipWithIndex) {
+      when(trigger) {
+        intake.perList(l).emptying := band(0 downto 0) === bk
+      }
+    }
+    // the choice waits until every list's oldest entry is at its last place (`settleClocks` after the trigger)
+    val settling = Reg(UInt(log2Up(FeatureBudget.settleClocks(k) + 1) bits)) init 0
+    when(trigger) {
+      settling := FeatureBudget.settleClocks(k)
+    } elsewhen (settling =/= 0) {
+      settling := settling - 1
+    }
+    val choosing = settling =/= 0
     // the band's lists, each cell's picked from its bank by a copy of the bank register of its own (kept apart: one
     // register would choose every entry)
     val bankOfCell = (0 until cells).map { _ =>
@@ -247,87 +282,69 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
       }
       copy
     }
-    val lists = (0 until cells).map(cell => Mux(bankOfCell(cell) === 1, banks(1)(cell), banks(0)(cell)))
-    // The winner that comes first in raster order (row offset, then cell, then column; without its score), in
-    // registered steps
-    // within the pace, one comparison each: pairs of a cell's entries, the cell's first, pairs of cells, the band's
-    // first; at the next step it leaves and its entry is emptied, in time for the next winner's first step (the
-    // first step is the clock after the trigger).
+    val cellWidth = log2Up(cells max 2)
     case class Candidate() extends Bundle {
       val valid = Bool()
-      val key = UInt(b.bandShift + log2Up(cells max 2) + b.cellShift bits)
 
-      /** the entry's place among the band's, one-hot: its score is picked and its entry emptied by it after the
-        * choice */
-      val place = Bits(cells * k bits)
-    }
-    // an empty entry sorts after every full one: its key's top bit (one comparison, no logic around it; of two
-    // empty entries either is chosen, and an empty choice emits nothing)
-    def earlier(l: Candidate, r: Candidate): Candidate =
-      Mux((!l.valid ## l.key).asUInt <= (!r.valid ## r.key).asUInt, l, r)
+      /** the raster order within the band: row offset, cell, column offset */
+      val key = UInt(b.bandShift + cellWidth + b.cellShift bits)
+      val score = UInt(h.scoreWidth bits)
+      val rank = UInt(rankWidth bits)
 
-    /** the first of `cs` (two or more) by levels of comparisons, a register after each: the last level's input */
-    def lastLevelOf(cs: Seq[Candidate]): Candidate = {
-      val pairs = cs.grouped(2).map(_.reduce(earlier)).toSeq
-      if (pairs.size == 1) pairs.head else lastLevelOf(pairs.map(RegNext(_)))
+      /** its cell, one-hot: the list it leaves */
+      val cell = Bits(cells bits)
     }
-    // the entries of the emitted bank registered first (the bank chosen), then the comparisons (keys are distinct,
-    // so pairing entries cell by cell or across cells gives the same first)
-    val candidates = lists.zipWithIndex.flatMap { case (list, cell) =>
-      list.zipWithIndex.map { case (e, i) =>
-        val cand = Candidate()
-        cand.valid := e.valid
-        cand.key := e.yOffset @@ U(cell, log2Up(cells max 2) bits) @@ e.xOffset
-        cand.place := B(BigInt(1) << (cell * k + i), cells * k bits)
-        RegNext(cand)
-      }
+
+    /** the order of two heads: an empty one after every full one, then the key (keys differ: they hold the cell) */
+    def order(c: Candidate): UInt = (!c.valid ## c.key).asUInt
+    // Each cell's next winner (its list's last place) registered; every pair of them compared into a register; the
+    // band's first, one-hot, into a register; its entry picked by it. The lists do not change while a winner is
+    // chosen (they settle before the choice starts and two clocks after a winner leaves), so the comparisons and the
+    // pick see the same heads.
+    val heads = (0 until cells).map { cell =>
+      val e = Mux(bankOfCell(cell) === 1, banks(1)(cell)(k - 1), banks(0)(cell)(k - 1))
+      val cand = Candidate()
+      cand.valid := e.valid
+      cand.key := e.yOffset @@ U(cell, cellWidth bits) @@ e.xOffset
+      cand.score := e.score
+      cand.rank := e.rank
+      cand.cell := B(BigInt(1) << cell, cells bits)
+      RegNext(cand)
     }
-    require(candidates.size >= 2, "a band holds at least two entries")
-    val choice = lastLevelOf(candidates.toSeq)
-    val first = RegNext(choice)
-    // the winner's place in each cell, one copy per bank and cell (kept apart): each picks its cell's score and
-    // empties its cell's entry
-    val places = (0 until 2).map { _ =>
-      (0 until cells).map { cell =>
-        keptApart(RegNext(choice.place(cell * k, k bits)))
-      }
-    }
-    // the choice's register levels, then the score picked by its place into a register: the winner leaves after
-    // them (its entry emptied then, a clock before the next round's entries are registered)
-    val steps = 1 + log2Up(candidates.size) + 2
-    require(steps + 1 <= FeatureBudget.winnerClocks, "a winner leaves in its pace, its score picked a clock before")
+    val before = (for (i <- 0 until cells; j <- i + 1 until cells)
+      yield (i, j) -> RegNext(order(heads(i)) < order(heads(j)))).toMap
+    val wins = RegNext(Vec((0 until cells).map { i =>
+      (0 until cells).filter(_ != i).map(j => if (i < j) before((i, j)) else !before((j, i))).foldLeft(True)(_ && _)
+    }))
+    wins.foreach(_.init(False))
+    val first = RegNext(MuxOH.or(wins, heads))
+    require(FeatureBudget.choiceDepth == 4, "the heads, their comparisons, the one-hot and the pick")
+    // A winner leaves at this step of its pace, `choiceDepth` clocks after the lists it was chosen from had settled
+    // (the pace starts a clock after `choosing`; a list settles two clocks after its winner left).
+    val steps = FeatureBudget.choiceDepth
+    require(steps < FeatureBudget.winnerClocks, "a winner leaves within its pace")
+    require(steps + 2 <= FeatureBudget.winnerClocks, "a list has moved on before its next winner is chosen")
     val out = Flow(CornerHw(f, h))
     val now = busy && pace === steps && !choosing
     out.valid := now && first.valid
-    out.x := ((first.key.resize(log2Up(cells max 2) + b.cellShift)).resize(f.coordWidth))
+    out.x := first.key.resize(cellWidth + b.cellShift).resize(f.coordWidth)
     out.y := bandY + first.key(first.key.getWidth - 1 downto first.key.getWidth - b.bandShift).resize(f.coordWidth)
-    // the score is not carried through the choice (narrower selections): picked by the winner's place into a
-    // register in the clock before it leaves
-    // (in two registered steps: each cell's, then the cell's, in each bank; the bank chosen after them)
-    val cellScores = banks.zip(places).map { case (bk, bankPlaces) =>
-      bk.zip(bankPlaces).map { case (list, place) => RegNext(MuxOH.or(place: Bits, list.map(_.score).toSeq)) }
-    }
-    val scores = cellScores.map(cs => RegNext(cs.reduce(_ | _)))
-    out.score := Mux(bank === 1, scores(1), scores(0))
-    // and its rank, picked alike (the winner's level is the rank's leading bits: no second leading-one search)
-    val cellRanks = banks.zip(places).map { case (bk, bankPlaces) =>
-      bk.zip(bankPlaces).map { case (list, place) => RegNext(MuxOH.or(place: Bits, list.map(_.rank).toSeq)) }
-    }
-    val ranks = cellRanks.map(cs => RegNext(cs.reduce(_ | _)))
-    val outRank = Mux(bank === 1, ranks(1), ranks(0))
+    out.score := first.score
+    val outRank = first.rank
     when(busy) {
       pace := Mux(pace === FeatureBudget.winnerClocks - 1, U(0, pace.getWidth bits), pace + 1)
     }
     when(trigger || choosing) { pace := 0 }
     when(now) {
       when(first.valid) {
-        for (bk <- 0 until 2; cell <- 0 until cells; i <- 0 until k) {
-          when(bank === bk && places(bk)(cell)(i)) {
-            banks(bk)(cell)(i).valid := False
+        for (bk <- 0 until 2; cell <- 0 until cells) {
+          when(bank === bk && first.cell(cell)) {
+            banks(bk)(cell)(k - 1).valid := False
           }
         }
       } otherwise {
         busy := False
+        intake.perList.foreach(_.emptying := False)
       }
     }
   }
@@ -533,6 +550,19 @@ object FeatureBudget {
   /** Clocks between two winners leaving a bank: the registered steps that choose one, and the histogram's read, its
     * registered data, the write back. */
   val winnerClocks: Int = 8
+
+  /** Clocks the lists of a band with `places` places take to settle after its trigger: each moves its oldest entry
+    * on to its last place, one place a clock. */
+  def settleClocks(places: Int): Int = (places - 1) max 1
+
+  /** Registers from the lists to the chosen winner: the heads, their comparisons, the one-hot, the pick. */
+  val choiceDepth: Int = 4
+
+  /** Clocks from the first pixel of a band's emission row reaching the budget until its emission of `winners` has
+    * ended (the row's registers and the trigger, the lists settling, the pace's start, a winner per pace, the empty
+    * choice that ends it, a clock to see it). */
+  def emissionClocks(winners: Long, places: Int): Long =
+    2 + settleClocks(places) + 1 + choiceDepth + winners * winnerClocks + 1
 
   /** cells of a bank emptied by one copy of the frame end's firing */
   val cellsPerFiring: Int = 8
