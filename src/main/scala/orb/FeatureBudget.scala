@@ -192,6 +192,7 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
           * place that leaves first is empty */
         val emptying = keptApart(Reg(Bool()) init False)
         val advances = emptying && !list(k - 1).valid
+        // a list being emptied moves an empty entry into place 0
         val fresh = Entry()
         fresh.valid := !emptying
         fresh.xOffset := compared.corners(bank).x.resize(b.cellShift)
@@ -234,11 +235,16 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
 
   // A band is complete at the first pixel of row (band end + emitRowOffset); its winners leave in raster order.
   val emission = new Area {
-    // the stream position registered on the way in (the line buffer lies apart), and whether it triggers a band
-    // compared a clock ahead into a register (the trigger holds the frame end too): the band starts two clocks
-    // after its row's first pixel reaches the budget (its corners came rows before; the frame's end comes after
-    // the detector's latency)
-    val p = io.pixels.stage()
+    // the stream position registered on the way in (the line buffer lies apart; kept apart from the detector's
+    // identical stage register), and whether it triggers a band compared a clock ahead into a register (the
+    // trigger holds the frame end too): the band starts two clocks after its row's first pixel reaches the budget
+    // (its corners came rows before; the frame's end comes after the detector's latency)
+    val p = new Area {
+      val valid = keptApart(RegNext(io.pixels.valid) init False)
+      val x = keptApart(RegNext(io.pixels.x))
+      val y = keptApart(RegNext(io.pixels.y))
+      val active = keptApart(RegNext(io.pixels.active))
+    }
     val rowStart = p.valid && p.x === 0 && p.active
     val sinceEnd = p.y - b.emitRowOffset
     val triggers = rowStart && p.y >= b.cellHeight + b.emitRowOffset && sinceEnd(b.bandShift - 1 downto 0) === 0
@@ -265,7 +271,8 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
         intake.perList(l).emptying := band(0 downto 0) === bk
       }
     }
-    // the choice waits until every list's oldest entry is at its last place (`settleClocks` after the trigger)
+    // the choice waits until every list's oldest entry is at its last place (from the clock after the
+    // `settleClocks` after the trigger)
     val settling = Reg(UInt(log2Up(FeatureBudget.settleClocks(k) + 1) bits)) init 0
     when(trigger) {
       settling := FeatureBudget.settleClocks(k)
@@ -322,7 +329,6 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
     // A winner leaves at this step of its pace, `choiceDepth` clocks after the lists it was chosen from had settled
     // (the pace starts a clock after `choosing`; a list settles two clocks after its winner left).
     val steps = FeatureBudget.choiceDepth
-    require(steps < FeatureBudget.winnerClocks, "a winner leaves within its pace")
     require(steps + 2 <= FeatureBudget.winnerClocks, "a list has moved on before its next winner is chosen")
     val out = Flow(CornerHw(f, h))
     val now = busy && pace === steps && !choosing
@@ -373,14 +379,14 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
     ram.write(RegNext(writeAddress), RegNext(writeData), RegNext(write) init False)
   }
 
-  // Winners, three clocks after they leave the bank (their score picked in the first, the leading one's position
-  // in the second, the level in the third), against the cut and the target. The comparisons with the counts are
+  // Winners, three clocks after they leave the bank (beside their level: the rank's leading bits, taken in three
+  // registered steps), against the cut and the target. The comparisons with the counts are
   // registered a clock ahead: winners are `FeatureBudget.winnerClocks` apart, so the counts have settled long
   // before the next one.
   val decide = new Area {
-    val leading = emission.out.stage()
-    val scored = leading.stage()
-    val winner = scored.stage()
+    val oneLater = emission.out.stage()
+    val twoLater = oneLater.stage()
+    val winner = twoLater.stage()
     // the level of `levelFracBits` (`BudgetModel.level`) is the rank of `rankFracBits` without its last bits
     val level =
       RegNext(Arith.floorShift(RegNext(RegNext(emission.outRank)), b.rankFracBits - b.levelFracBits)).resize(levelWidth)
@@ -392,7 +398,7 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
     val deselect = winner.valid && !take
     // the count of the winner's level comes back two clocks later and is written back a clock after that
     val counting = Delay(winner.valid, 2, init = False)
-    val inFlight = leading.valid || scored.valid || winner.valid || RegNext(winner.valid, init = False) || counting
+    val inFlight = oneLater.valid || twoLater.valid || winner.valid || RegNext(winner.valid, init = False) || counting
     val countedLevel = Delay(level, 2)
     // counted a clock later, from registers (the next winner is `winnerClocks` away)
     val took = RegNext(take) init False
@@ -559,8 +565,8 @@ object FeatureBudget {
   val choiceDepth: Int = 4
 
   /** Clocks from the first pixel of a band's emission row reaching the budget until its emission of `winners` has
-    * ended (the row's registers and the trigger, the lists settling, the pace's start, a winner per pace, the empty
-    * choice that ends it, a clock to see it). */
+    * ended, exactly: the row's registers and the trigger, the lists settling, the pace's start, `choiceDepth` to the
+    * first winner's step, a pace per winner and one for the empty choice that ends it, a clock to see it. */
   def emissionClocks(winners: Long, places: Int): Long =
     2 + settleClocks(places) + 1 + choiceDepth + winners * winnerClocks + 1
 

@@ -318,4 +318,5 @@ class HarrisDetector(f: FrameConfig, h: HarrisConfig, columnRows: Int, stages: H
   }
 
   pipeline.build()
+  Pipes.keepValidsApart(pipeline)
 }

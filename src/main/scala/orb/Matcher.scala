@@ -534,11 +534,13 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
   for ((lane, l) <- lanes.zipWithIndex) {
     def here(sel: UInt): Bool = laneIs(sel, l)
     val loadHere = load.write && here(load.lane)
-    // the address a register per lane (kept apart: one register would drive every RAM of the store)
-    lane.store.write(keptApart(RegNext(load.addr)), RegNext(load.entry), RegNext(loadHere) init False)
+    // the address and the write enable registers of the lane's own (kept apart: one address register would drive
+    // every RAM of the store, and the enable is identical to the score word's decision below, with which synthesis
+    // would merge it: one register then drives the lane's RAM blocks and the cross state's selection apart)
+    lane.store.write(keptApart(RegNext(load.addr)), RegNext(load.entry), keptApart(RegNext(loadHere) init False))
     // the score word a clock later than the entry, its decision registered before the selection below (the rescan
     // that reads it starts later still)
-    val scoreHere = RegNext(loadHere) init False
+    val scoreHere = keptApart(RegNext(loadHere) init False)
     val scoreAddr = RegNext(load.addr)
     val scoreWord = Cross()
     scoreWord.assignFromBits(RegNext(item.score).asBits.resize(scoreWord.getBitsWidth))

@@ -2,7 +2,7 @@ package orb
 
 import spinal.core._
 import spinal.lib._
-import orb.Pipes.keptApart
+import orb.Pipes.{delayApart, keptApart}
 import Arith._
 
 /** Orientation by intensity centroid (OpenCV's IC_Angle) without storing any patch or keeping any per-corner state
@@ -50,8 +50,8 @@ class OrientationUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, c
       RegNext(Vec((1 to R).map(v => at(v).intoSInt.resize(sumWidth) - at(-v).intoSInt.resize(sumWidth))))
     // v (I(v) - I(-v)) by shifts and adds
     val weighted = RegNext(Vec((1 to R).map(v => constMulSigned(differences(v - 1), v, sumWidth))))
-    val (t, tLatency) = prefixSums((centre +: pairs).map(_.asSInt), heights, sumWidth, 2)
-    val (tv, tvLatency) = prefixSums(weighted, heights.map(_ - 1), sumWidth, 2)
+    val (t, tLatency) = prefixSums((centre +: pairs).map(_.asSInt), heights, sumWidth, sumLevelsPerStage)
+    val (tv, tvLatency) = prefixSums(weighted, heights.map(_ - 1), sumWidth, sumLevelsPerStage)
 
     /** clocks from the column to the sums */
     val latency = 2 + tvLatency
@@ -59,12 +59,13 @@ class OrientationUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, c
     // narrowed to their ranges before they fan out to the chains' taps
     val T = Vec(heights.map(dh => Delay(t(dh).asUInt.resize(columnSumWidth), latency - 1 - tLatency)))
     val TV = Vec(heights.map(dh => tv(dh - 1).resize(weightedSumWidth)))
-    val valid = Delay(io.columns.valid, latency, init = False)
+    // the column stream's valid and position delayed by registers of this block's own (`Pipes.delayApart`)
+    val valid = delayApart(io.columns.valid, latency, init = False)
 
     /** a copy of `valid` (its last register kept apart) for a consumer apart from the chains */
-    def validCopy(): Bool = keptApart(RegNext(Delay(io.columns.valid, latency - 1, init = False)) init False)
+    def validCopy(): Bool = keptApart(RegNext(delayApart(io.columns.valid, latency - 1, init = False)) init False)
     // the beat's pixel beside its sums, and a clock before (the head is compared with it a clock ahead)
-    val pixelAhead = Delay(io.columns.pixel, latency - 1)
+    val pixelAhead = delayApart(io.columns.pixel, latency - 1)
     val pixel = RegNext(pixelAhead)
     val x = pixel.x
     val y = pixel.y
@@ -253,6 +254,10 @@ object OrientationUnit {
 
   /** |m10|, |m01| <= 255 * sum |u| over the disc < 2^21 */
   val momentWidth: Int = 24
+
+  /** adder levels of the column sums' prefix sums between registers: one (every column sum a register after each
+    * adder; the flip-flops share the adders' logic elements) */
+  val sumLevelsPerStage: Int = 1
 
   /** taps of the moment chains that share one copy of the beat's valid */
   val chainGroup: Int = 4

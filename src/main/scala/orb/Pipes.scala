@@ -2,6 +2,7 @@ package orb
 
 import spinal.core._
 import spinal.lib._
+import spinal.lib.misc.pipeline.StagePipeline
 
 /** Registers shaped for timing. */
 object Pipes {
@@ -13,6 +14,21 @@ object Pipes {
     r.addAttribute("preserve")
     r
   }
+
+  /** `v` through `n` registers, each kept apart: the blocks fed by the same stream (the line buffer's columns) would
+    * otherwise have identical delay registers, which synthesis merges into one, so that one block's enables come
+    * from another block's register across the chip. */
+  def delayApart[T <: Data](v: T, n: Int, init: T = null.asInstanceOf[T]): T =
+    (0 until n).foldLeft(v) { (x, _) =>
+      val r = RegNext(x)
+      if (init != null) r.init(init)
+      keptApart(r)
+    }
+
+  /** Every stage's valid register of a built `pipeline` kept apart, for the same reason as `delayApart`: the stage
+    * valids of two pipelines fed by the same stream are identical registers. */
+  def keepValidsApart(pipeline: StagePipeline): Unit =
+    pipeline.nodes.values.map(_.valid).filter(_.isReg).foreach(keptApart(_))
 
   /** `in.halfPipe()` (a beat every other clock, the ready the valid register's complement) whose payload is loaded in
     * `parts` slices, each by its own copy of the "empty" flag (kept apart): no one register enables every bit of a

@@ -58,6 +58,7 @@ class Smoother(f: FrameConfig, columnRows: Int) extends Component {
   io.smoothed.smoothed := out(row.ROUNDED)
 
   pipeline.build()
+  Pipes.keepValidsApart(pipeline)
 }
 
 object Smoother {
