@@ -60,10 +60,11 @@ class OrientationUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, c
     val T = Vec(heights.map(dh => Delay(t(dh).asUInt.resize(columnSumWidth), latency - 1 - tLatency)))
     val TV = Vec(heights.map(dh => tv(dh - 1).resize(weightedSumWidth)))
     // the column stream's valid and position delayed by registers of this block's own (`Pipes.delayApart`)
-    val valid = delayApart(io.columns.valid, latency, init = False)
+    val validAhead = delayApart(io.columns.valid, latency - 1, init = False)
+    val valid = keptApart(RegNext(validAhead) init False)
 
     /** a copy of `valid` (its last register kept apart) for a consumer apart from the chains */
-    def validCopy(): Bool = keptApart(RegNext(delayApart(io.columns.valid, latency - 1, init = False)) init False)
+    def validCopy(): Bool = keptApart(RegNext(validAhead) init False)
     // the beat's pixel beside its sums, and a clock before (the head is compared with it a clock ahead)
     val pixelAhead = delayApart(io.columns.pixel, latency - 1)
     val pixel = RegNext(pixelAhead)
