@@ -89,27 +89,36 @@ class AngleSearch(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) exten
     val PRODUCT = s.insert((s(HI) << loWidth).resize(momentWidth + tWidth) + s(LO).resize(momentWidth + tWidth))
     val c = at(first + 4 * i + 3)
     val take = c(TRY) && ((c(fold.B).resize(momentWidth + d.tanFracBits) |<< d.tanFracBits) >= c(PRODUCT))
-    counts += c.insert(Mux(take, c(BEFORE) + step, c(BEFORE)))
+    // `before` is a multiple of 2 step: adding the step sets its bit (no carry, no adder after the comparison)
+    counts += c.insert(c(BEFORE) | (take.asUInt << shift).resize(countWidth))
   }
-  // the count unfolded over the octant's swap, registered, then over the quadrant's signs
+  // The count unfolded over the octant's swap and the quadrant's signs: the bin is offset +- count (modulo the bins),
+  // the offset and the sign decided from the swap and the signs nodes ahead, so the unfolding is one adder.
+  // With Q = swap ? 2m - count : count, the quadrants give Q, n/2 - Q, n/2 + Q and n - Q (0 for Q = 0).
   val unfold = new Area {
+    val n = d.angleBins
+    val bw = d.binWidth
+    val early = at(2)
+    val right = !early(beside.M10_NEGATIVE)
+    val up = !early(beside.M01_NEGATIVE)
+
+    /** the quadrant's base and sign of Q, as (base, Q subtracted) */
+    val base = Mux(right, Mux(up, U(0, bw + 1 bits), U(n, bw + 1 bits)), U(n / 2, bw + 1 bits))
+    val qSubtracted = right =/= up
+    // base + Q or base - Q; Q = 2m - count after a swap: the offset takes 2m in Q's sign, the count the other one
+    val OFFSET = early.insert(
+      Mux(early(fold.SWAP), Mux(qSubtracted, base - 2 * d.binsPerOctant, base + 2 * d.binsPerOctant), base)
+    )
+    val SUBTRACT = early.insert(qSubtracted =/= early(fold.SWAP))
     val swapped = at(first + 4 * steps.size)
-    val count = swapped(counts.last)
-    val Q = swapped.insert(Mux(swapped(fold.SWAP), U(2 * m, countWidth + 1 bits) - count, count.resize(countWidth + 1)))
+    val count = swapped(counts.last).resize(bw + 1)
+    val sum = Mux(swapped(SUBTRACT), swapped(OFFSET) - count, swapped(OFFSET) + count)
+    // the sum lies in [0, n]; n (the fourth quadrant's n - 0) is bin 0 (a power of two wraps by itself)
+    val BIN = swapped.insert(if (isPow2(n)) sum.resize(bw) else Mux(sum === n, U(0, bw bits), sum.resize(bw)))
     // |m10| is a, or b after a swap; |m01| the other: picked here, so that the next node only signs them
     val ABS10 = swapped.insert(Mux(swapped(fold.SWAP), swapped(fold.B), swapped(fold.A)))
     val ABS01 = swapped.insert(Mux(swapped(fold.SWAP), swapped(fold.A), swapped(fold.B)))
     val u = at(first + 4 * steps.size + 1)
-    val q = u(Q)
-    val n = d.angleBins
-    val bin = UInt(d.binWidth + 1 bits)
-    val right = !u(beside.M10_NEGATIVE)
-    val up = !u(beside.M01_NEGATIVE)
-    when(right && up) { bin := q.resized }
-      .elsewhen(!right && up) { bin := (U(n / 2, d.binWidth + 1 bits) - q).resized }
-      .elsewhen(!right && !up) { bin := (U(n / 2, d.binWidth + 1 bits) + q).resized }
-      .otherwise { bin := Mux(q === 0, U(0, d.binWidth + 1 bits), (U(n, d.binWidth + 1 bits) - q).resized) }
-    val BIN = u.insert(bin.resize(d.binWidth))
     def moment(magnitude: UInt, negative: Bool): SInt = {
       val m = magnitude.intoSInt.resize(momentWidth)
       Mux(negative, -m, m)

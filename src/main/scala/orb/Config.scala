@@ -231,6 +231,12 @@ case class SegmentTestConfig(arc: Int = 9, defaultThreshold: Int = 20) {
 object SegmentTestConfig {
   val radius: Int = 3
 
+  /** the pixels' and the threshold's width */
+  val valueWidth: Int = 8
+
+  /** a pixel and the centre less the threshold, as signed numbers wide enough for any difference of two values */
+  val signedWidth: Int = valueWidth + 2
+
   /** copies of the centre's thresholds, each compared with an arc of the circle */
   val thresholdCopies: Int = 4
 
@@ -427,6 +433,10 @@ object MatcherConfig {
   /** clocks from the sweep's read of an entry to its correspondence's push into the output FIFO (the entry picked
     * from its lane into a register, then the push's register) */
   val pushLatency: Int = crossLatency + 2
+
+  /** The widest part of an entry in one RAM of a lane (an M4K block's width at the store's depth), each part with
+    * address and enable registers of its own. */
+  val storePartBits: Int = 36
 
   /** Parts of the input register's payload (a feature), each loaded by its own copy of the register's empty flag. */
   val itemParts: Int = 8

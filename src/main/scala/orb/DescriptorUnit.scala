@@ -575,19 +575,27 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
           (BigInt(v.abs) + (if (v < 0) BigInt(1) << patternWidth else BigInt(0))) << (i * fieldWidth)
         }.sum
       }
-      // the table read in parts, each part's word registered beside it, then the part picked into a register, then
-      // a copy of it that feeds only the multipliers (their input registers, across the chip)
+      // the table in slices of its points, each read in parts: each part's word registered beside it, then the
+      // part picked into a register, then a copy of the whole word that feeds only the multipliers (their input
+      // registers, across the chip); every slice with its own copies of the group count (kept apart), one per part
+      // and one for the pick: no one count drives a whole word's lookups or picks
       val token = stepToken(stepToken(stepToken(fetch.token)))
-      val index = fetch.group.resize(log2Up(groups))
-      val table = Arith.SplitTable(rom, pointsPerGroup * 2 * fieldWidth, DescriptorUnit.tableParts)
-      // a copy of the group count per part of the table (kept apart)
-      val indexCopies = (0 until DescriptorUnit.tableParts).map { _ =>
-        val r = keptApart(fetch.counter())
-        r.resize(log2Up(groups))
+      val sliceWidth = pointsPerGroup / DescriptorUnit.patternSlices * 2 * fieldWidth
+      require(pointsPerGroup % DescriptorUnit.patternSlices == 0, "a slice holds whole points")
+      val slices = (0 until DescriptorUnit.patternSlices).map { sl =>
+        new Area {
+          val table = Arith.SplitTable(
+            rom.map(w => (w >> (sl * sliceWidth)) & ((BigInt(1) << sliceWidth) - 1)),
+            sliceWidth,
+            DescriptorUnit.tableParts
+          )
+          def countCopy(): UInt = keptApart(fetch.counter()).resize(log2Up(groups))
+          val indexCopies = (0 until DescriptorUnit.tableParts).map(_ => countCopy())
+          val words = Vec(table.wordsEach(indexCopies).map(step(_)))
+          val part = keptApart(step(table.part(countCopy())))
+        }
       }
-      val words = Vec(table.wordsEach(indexCopies).map(step(_)))
-      val part = step(table.part(index))
-      val picked = step(table.pick(words, part).asBits)
+      val picked = step(Cat(slices.map(sl => sl.table.pick(sl.words, sl.part)))) // slice 0 in the low bits
       val bits = step(picked)
       private def field(k: Int): Bits = bits(k * (patternWidth + 1), patternWidth + 1 bits)
 
@@ -915,11 +923,13 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
       val bank5 = RegNext(bank4)
       // level 1: within each cluster, by the bank's low bits (beside the banks)
       def dataOf(l: Int): Vec[UInt] = if (l < lanesPerPort) portA else portBData
+      // each cluster picks with its own copy of the lane's bank (kept apart: one register would reach every cluster)
       val level1 = Vec(read.lanes.indices.map { l =>
         Vec((0 until clusters).map { k =>
           val members = (4 * k until (4 * k + 4 min banks)).map(dataOf(l)(_))
           val padded = members ++ Seq.fill(4 - members.size)(U(0, 8 bits))
-          RegNext(Vec(padded)(bank5(l).resize(2)))
+          val low = keptApart(RegNext(bank4(l).resize(2)))
+          RegNext(Vec(padded)(low))
         })
       })
       val reads6 = delayed(reads5)
@@ -1083,6 +1093,9 @@ object DescriptorUnit {
   /** parts of the constant tables (the test pattern, cos and sin), each read with a small index into a register
     * before the part is picked */
   val tableParts: Int = 8
+
+  /** slices of the test pattern's word (whole points each), each looked up and picked by copies of its own */
+  val patternSlices: Int = 2
 
   /** slices of the cos/sin lookup's register, each loaded by its own copy of its "empty" flag */
   val lookupParts: Int = 8

@@ -191,7 +191,16 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
         /** the list's band is being emitted (set and cleared by the emission): its entries move on whenever the
           * place that leaves first is empty */
         val emptying = keptApart(Reg(Bool()) init False)
-        val advances = emptying && !list(k - 1).valid
+
+        /** `emptying` while the last place is empty, decided a clock ahead into registers from both registers'
+          * next values (no path from the list's last place or the emission to every place's enable), one copy per
+          * place and part of the entry as `writes` (kept apart) */
+        val advancesNext = emptying.getAheadValue() && !list(k - 1).valid.getAheadValue()
+        val advances = (0 until k).map { _ =>
+          Seq.fill(3) {
+            keptApart(RegNext(advancesNext) init False)
+          }
+        }
         // a list being emptied moves an empty entry into place 0
         val fresh = Entry()
         fresh.valid := !emptying
@@ -206,7 +215,7 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
         }
         val scoreHalf = h.scoreWidth / 2
         for (i <- 0 until k) {
-          val moves = writes(i).map(w => (w && admits && freedFrom(i)) || advances)
+          val moves = writes(i).zip(advances(i)).map { case (w, a) => (w && admits && freedFrom(i)) || a }
           val from = if (i == 0) fresh else list(i - 1)
           when(moves(0)) {
             list(i).score(scoreHalf - 1 downto 0) := from.score(scoreHalf - 1 downto 0)

@@ -4,6 +4,7 @@ import spinal.core._
 import spinal.lib._
 import spinal.lib.misc.pipeline._
 import Arith._
+import orb.Pipes.keptApart
 
 /** Where each step of the detector sits in its pipeline (node index); a later node means more registers in
   * between. Steps of one node share a clock; the default registers the input column (it comes from the line
@@ -102,6 +103,13 @@ class HarrisDetector(f: FrameConfig, h: HarrisConfig, columnRows: Int, stages: H
     for (r <- 0 until HarrisConfig.rawRows) n(COLUMN)(r) := p.column(r)
   }
 
+  /** A copy of node `i`'s valid (a register kept apart, from node `i - 1`'s): each window's shift register is
+    * enabled by one of its own, not by the register that also drives the node's stage. */
+  private def validCopy(i: Int): Bool = {
+    require(i >= 1)
+    keptApart(RegNext(at(i - 1).isValid) init False)
+  }
+
   /** 1 2 1 smoothing of three values. */
   private def w121(a: SInt, b: SInt, c: SInt, width: Int): SInt =
     (a.resize(width) + (b.resize(width) |<< 1)) + c.resize(width)
@@ -138,7 +146,7 @@ class HarrisDetector(f: FrameConfig, h: HarrisConfig, columnRows: Int, stages: H
   // at column x-1 of the newest pixel x. The 1 2 1 sums in one step, their differences in the next.
   val sobelNode = at(stages.sobel)
   val sobel = new sobelNode.Area {
-    val cols = lastValid(this(COLUMN), 3, isValid) // 0: column x, 1: x-1, 2: x-2
+    val cols = lastValid(this(COLUMN), 3, validCopy(stages.sobel)) // 0: column x, 1: x-1, 2: x-2
     def px(c: Int, r: Int): SInt = cols(c)(r).intoSInt
     val gw = h.gradWidth
     val RIGHT = insert(Vec((1 to 7).map(r => w121(px(0, r - 1), px(0, r), px(0, r + 1), gw))))
@@ -172,13 +180,18 @@ class HarrisDetector(f: FrameConfig, h: HarrisConfig, columnRows: Int, stages: H
       val copies = SegmentTestConfig.thresholdCopies
       val brighterThan = Seq.fill(copies)(Pipes.keptApart(RegNextWhen(upcoming +^ t, compareNode.isValid)))
       val darkerThan = Seq.fill(copies)(
-        Pipes.keptApart(RegNextWhen(upcoming.intoSInt.resize(10) - t.intoSInt.resize(10), compareNode.isValid))
+        Pipes.keptApart(RegNextWhen(
+          upcoming.intoSInt.resize(SegmentTestConfig.signedWidth) - t.intoSInt.resize(SegmentTestConfig.signedWidth),
+          compareNode.isValid
+        ))
       )
       val ring = SegmentTestConfig.circle.map { case (dx, dy) => px(dx, dy) }
       def arcOf(i: Int): Int = i * copies / ring.size
       val BRIGHTER = compareNode.insert(Vec(ring.zipWithIndex.map { case (p, i) => p > brighterThan(arcOf(i)) }).asBits)
       val DARKER = compareNode.insert(
-        Vec(ring.zipWithIndex.map { case (p, i) => p.intoSInt.resize(10) < darkerThan(arcOf(i)) }).asBits
+        Vec(ring.zipWithIndex.map { case (p, i) =>
+          p.intoSInt.resize(SegmentTestConfig.signedWidth) < darkerThan(arcOf(i))
+        }).asBits
       )
       def anyArc(b: Bits): Bool = (0 until 16).map(s => (0 until sc.arc).map(k => b((s + k) % 16)).andR).orR
       val PASSES = arcNode.insert(anyArc(arcNode(BRIGHTER)) || anyArc(arcNode(DARKER)))
@@ -227,7 +240,14 @@ class HarrisDetector(f: FrameConfig, h: HarrisConfig, columnRows: Int, stages: H
     val half = if (h.windowShift == 0) S(0, w bits) else S(BigInt(1) << (h.windowShift - 1), w bits)
     def window(v: Payload[SInt]): SInt =
       floorShift(
-        binomial7(lastValid(pre(v), 7, pre.isValid), pre, at(stages.rowSum), w, Some(at(stages.rowMid)), Some(half)),
+        binomial7(
+          lastValid(pre(v), 7, validCopy(stages.rowPre)),
+          pre,
+          at(stages.rowSum),
+          w,
+          Some(at(stages.rowMid)),
+          Some(half)
+        ),
         h.windowShift
       )
     val SXX = at(stages.rowSum).insert(window(column.VXX).resize(h.sSquareWidth + 1).asUInt.resize(h.sSquareWidth))
@@ -274,7 +294,7 @@ class HarrisDetector(f: FrameConfig, h: HarrisConfig, columnRows: Int, stages: H
     val scores = new RowWindow(RowWindowConfig(3, f.maxWidth, h.scoreWidth))
     val WINDOW = at(stages.window).insert(scores.column(read.isValid, read(PIXEL).x, read(response.SCORE).asBits))
     val n = at(stages.suppress)
-    val cols = lastValid(Vec(n(WINDOW).map(_.asUInt)), 3, n.isValid) // 0: column x, 1: x-1 (centre), 2: x-2
+    val cols = lastValid(Vec(n(WINDOW).map(_.asUInt)), 3, validCopy(stages.suppress)) // 0: x, 1: x-1 (centre), 2: x-2
     // Row 0 is the newest (below the centre), row 2 the oldest (above).
     val centre = cols(1)(1)
     val earlier = Seq(cols(2)(2), cols(1)(2), cols(0)(2), cols(2)(1))

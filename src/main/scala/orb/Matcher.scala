@@ -112,9 +112,14 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
     val lessTwo = RegNext(groups - 2) init 0
   }
 
+  /** an entry's bits in parts, one RAM each: every RAM block of a lane has address and enable registers of its own */
+  val entryWidth = widthOf(Entry())
+  val storeParts = (0 until entryWidth by MatcherConfig.storePartBits).map { low =>
+    (low, (entryWidth - low) min MatcherConfig.storePartBits)
+  }
   val lanes =
     for (l <- 0 until P) yield new Area {
-      val store = Mem(Entry(), m.groups)
+      val store = storeParts.map { case (_, width) => Mem(Bits(width bits), m.groups) }
       // While a keyframe loads, an entry's cross state is not needed: its word holds the entry's score instead
       // (what the replacement compares), and the keyframe's end clears them all (no RAM for the scores).
       val cross = Mem(Cross(), m.groups)
@@ -137,7 +142,10 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
     val full = RegNext(stored === m.storeCapacity) init False
     val room = emptied || !full
     val storedZero = emptied || groupsCompared.zero
-    val replace = !room && item.score > weakest.score
+    // the item's score above the weakest, a register kept up to date every clock (`rescanMin` sets it), so no score
+    // comparison lies between the handshake and the store's write enables
+    val scoreAbove = Reg(Bool()) init False
+    val replace = !room && scoreAbove
     val write = keyFeature && (room || replace)
     val index = Mux(room, storedNow, weakest.index)
     val entry = Entry(); entry.x := item.x; entry.y := item.y; entry.descriptor := item.descriptor
@@ -295,13 +303,13 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
   val scanCrossAddr = Delay(scan.readAddr, popStages - (crossLatency - readLatency))
   val reads =
     for ((lane, l) <- lanes.zipWithIndex) yield new Area {
-      // each lane's own copies (kept apart: one register would drive every RAM of the store)
+      // each RAM's own copies (kept apart: one register would drive every RAM of the store, or of a lane)
       def address(scanAddr: UInt): UInt = {
         keptApart(RegNext(Mux(rescan.busy, rescan.group.resize(groupWidth), Mux(sweep.busy, sweep.addr, scanAddr))))
       }
-      val addr = address(scan.readAddr)
       val crossAddr = address(scanCrossAddr)
-      val entry = RegNext(lane.store.readSync(addr))
+      val entry = Entry()
+      entry.assignFromBits(Cat(lane.store.map(part => RegNext(part.readSync(address(scan.readAddr))))))
       val cross = RegNext(RegNext(lane.cross.readSync(crossAddr)))
 
       /** the entry's position beside its cross word, for the sweep */
@@ -336,7 +344,8 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
     val valid = Delay(read, levels, init = False)
     val firstD = Delay(first, levels, init = False)
     val accScore = Reg(UInt(h.scoreWidth bits)); val accIndex = Reg(UInt(countWidth bits))
-    val takeNew = firstD || low < accScore
+    // the running lowest's comparison in two halves side by side (no carry through a whole score in its loop)
+    val takeNew = firstD || Arith.combineHalves(Arith.comparedInHalves(accScore, low, orEqual = false))
     when(valid && takeNew) { accScore := low; accIndex := index }
     // busy until the new weakest is in place, so that the next keyframe feature compares against it: the last
     // group's result is the one no read follows
@@ -346,6 +355,18 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
       weakest.score := accScore
       weakest.index := accIndex
     }
+  }
+
+  // `load.scoreAbove` from the next values of the item's score (the item register loads the stream's payload while
+  // it is empty) and of the weakest's: the item's compared with each score the weakest may take, side by side, the
+  // comparison picked by the registers that choose it (the rescan's result last, as above)
+  locally {
+    val nextScore = Mux(item.valid, item.score, io.features.score)
+    load.scoreAbove := Mux(
+      rescanMin.last,
+      nextScore > rescanMin.accScore,
+      Mux(load.becomesWeakest, nextScore > load.appendedScore, nextScore > weakest.score)
+    )
   }
 
   // The compare pipeline, stage by stage, side-band data delayed alongside.
@@ -534,10 +555,13 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
   for ((lane, l) <- lanes.zipWithIndex) {
     def here(sel: UInt): Bool = laneIs(sel, l)
     val loadHere = load.write && here(load.lane)
-    // the address and the write enable registers of the lane's own (kept apart: one address register would drive
+    // the address and the write enable registers of each RAM's own (kept apart: one address register would drive
     // every RAM of the store, and the enable is identical to the score word's decision below, with which synthesis
     // would merge it: one register then drives the lane's RAM blocks and the cross state's selection apart)
-    lane.store.write(keptApart(RegNext(load.addr)), RegNext(load.entry), keptApart(RegNext(loadHere) init False))
+    val entryBits = RegNext(load.entry.asBits)
+    for ((part, (low, width)) <- lane.store.zip(storeParts)) {
+      part.write(keptApart(RegNext(load.addr)), entryBits(low, width bits), keptApart(RegNext(loadHere) init False))
+    }
     // the score word a clock later than the entry, its decision registered before the selection below (the rescan
     // that reads it starts later still)
     val scoreHere = keptApart(RegNext(loadHere) init False)

@@ -76,7 +76,9 @@ class OrientationUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, c
     // compared at the input and delayed with the beat: a register, not a comparison, where it is used
     val frameStart =
       Delay(io.columns.valid && io.columns.pixel.x === 0 && io.columns.pixel.y === 0, latency, init = False)
-    val clock = new RowClock(f, valid && x === 0, frameStart)
+    // the row's start compared a clock ahead, from the registers before `valid` and `pixel`
+    val rowStart = RegNext(validAhead && pixelAhead.x === 0) init False
+    val clock = new RowClock(f, rowStart, frameStart)
   }
 
   // The beat one clock after `sums`: the chains add its sums.

@@ -124,7 +124,7 @@ case class CornerParamsHw() extends Bundle {
 
   /** only pixels that pass the segment test are candidates (ignored without `HarrisConfig.segment`) */
   val segmentTest = Bool()
-  val segmentThreshold = UInt(8 bits)
+  val segmentThreshold = UInt(SegmentTestConfig.valueWidth bits)
 
   /** the feature budget's target: features per frame */
   val target = UInt(BudgetConfig.targetWidth bits)
