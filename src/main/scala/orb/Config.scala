@@ -434,10 +434,6 @@ object MatcherConfig {
     * from its lane into a register, then the push's register) */
   val pushLatency: Int = crossLatency + 2
 
-  /** The widest part of an entry in one RAM of a lane (an M4K block's width at the store's depth), each part with
-    * address and enable registers of its own. */
-  val storePartBits: Int = 36
-
   /** Parts of the input register's payload (a feature), each loaded by its own copy of the register's empty flag. */
   val itemParts: Int = 8
 

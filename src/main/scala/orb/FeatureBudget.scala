@@ -194,12 +194,10 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
 
         /** `emptying` while the last place is empty, decided a clock ahead into registers from both registers'
           * next values (no path from the list's last place or the emission to every place's enable), one copy per
-          * place and part of the entry as `writes` (kept apart) */
+          * place (kept apart) */
         val advancesNext = emptying.getAheadValue() && !list(k - 1).valid.getAheadValue()
         val advances = (0 until k).map { _ =>
-          Seq.fill(3) {
-            keptApart(RegNext(advancesNext) init False)
-          }
+          keptApart(RegNext(advancesNext) init False)
         }
         // a list being emptied moves an empty entry into place 0
         val fresh = Entry()
@@ -215,7 +213,7 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
         }
         val scoreHalf = h.scoreWidth / 2
         for (i <- 0 until k) {
-          val moves = writes(i).zip(advances(i)).map { case (w, a) => (w && admits && freedFrom(i)) || a }
+          val moves = writes(i).map(w => (w && admits && freedFrom(i)) || advances(i))
           val from = if (i == 0) fresh else list(i - 1)
           when(moves(0)) {
             list(i).score(scoreHalf - 1 downto 0) := from.score(scoreHalf - 1 downto 0)
@@ -340,7 +338,9 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
     val steps = FeatureBudget.choiceDepth
     require(steps + 2 <= FeatureBudget.winnerClocks, "a list has moved on before its next winner is chosen")
     val out = Flow(CornerHw(f, h))
-    val now = busy && pace === steps && !choosing
+    // the winner's step, decided a clock ahead into a register from the next values of the registers it reads
+    val now =
+      RegNext(busy.getAheadValue() && pace.getAheadValue() === steps && settling.getAheadValue() === 0) init False
     out.valid := now && first.valid
     out.x := first.key.resize(cellWidth + b.cellShift).resize(f.coordWidth)
     out.y := bandY + first.key(first.key.getWidth - 1 downto first.key.getWidth - b.bandShift).resize(f.coordWidth)

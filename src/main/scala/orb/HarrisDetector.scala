@@ -104,11 +104,9 @@ class HarrisDetector(f: FrameConfig, h: HarrisConfig, columnRows: Int, stages: H
   }
 
   /** A copy of node `i`'s valid (a register kept apart, from node `i - 1`'s): each window's shift register is
-    * enabled by one of its own, not by the register that also drives the node's stage. */
-  private def validCopy(i: Int): Bool = {
-    require(i >= 1)
-    keptApart(RegNext(at(i - 1).isValid) init False)
-  }
+    * enabled by one of its own, not by the register that also drives the node's stage (node 0's is the input's). */
+  private def validCopy(i: Int): Bool =
+    if (i == 0) at(0).isValid else keptApart(RegNext(at(i - 1).isValid) init False)
 
   /** 1 2 1 smoothing of three values. */
   private def w121(a: SInt, b: SInt, c: SInt, width: Int): SInt =
@@ -165,13 +163,13 @@ class HarrisDetector(f: FrameConfig, h: HarrisConfig, columnRows: Int, stages: H
     val compareNode = at(stages.segmentCompare)
     val arcNode = at(stages.segmentArc)
     new Area {
-      val win =
-        lastValid(
-          Vec(compareNode(COLUMN).slice(1, 8)),
-          8,
-          compareNode.isValid
-        ) // win(j)(i): column x - j, row index i + 1
-      def px(dx: Int, dy: Int): UInt = win(4 - dx)(3 - dy) // dy > 0 is down, a newer row
+      // the window in two bands of rows, each shifted by a copy of the node's valid of its own
+      val upper = lastValid(Vec(compareNode(COLUMN).slice(1, 5)), 8, validCopy(stages.segmentCompare))
+      val lower = lastValid(Vec(compareNode(COLUMN).slice(5, 8)), 8, validCopy(stages.segmentCompare))
+
+      /** column x - j, row index i + 1 */
+      def win(j: Int, i: Int): UInt = if (i < 4) upper(j)(i) else lower(j)(i - 4)
+      def px(dx: Int, dy: Int): UInt = win(4 - dx, 3 - dy) // dy > 0 is down, a newer row
       // centre + t and centre - t, registered a beat ahead from the pixel that becomes the centre (the window
       // advances with valid pixels), so that no adder lies before the 32 comparisons; a copy of each per arc of
       // the circle (kept apart), so that no one register feeds all 16 comparisons

@@ -112,14 +112,9 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
     val lessTwo = RegNext(groups - 2) init 0
   }
 
-  /** an entry's bits in parts, one RAM each: every RAM block of a lane has address and enable registers of its own */
-  val entryWidth = widthOf(Entry())
-  val storeParts = (0 until entryWidth by MatcherConfig.storePartBits).map { low =>
-    (low, (entryWidth - low) min MatcherConfig.storePartBits)
-  }
   val lanes =
     for (l <- 0 until P) yield new Area {
-      val store = storeParts.map { case (_, width) => Mem(Bits(width bits), m.groups) }
+      val store = Mem(Entry(), m.groups)
       // While a keyframe loads, an entry's cross state is not needed: its word holds the entry's score instead
       // (what the replacement compares), and the keyframe's end clears them all (no RAM for the scores).
       val cross = Mem(Cross(), m.groups)
@@ -303,13 +298,13 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
   val scanCrossAddr = Delay(scan.readAddr, popStages - (crossLatency - readLatency))
   val reads =
     for ((lane, l) <- lanes.zipWithIndex) yield new Area {
-      // each RAM's own copies (kept apart: one register would drive every RAM of the store, or of a lane)
+      // each lane's own copies (kept apart: one register would drive every RAM of the store)
       def address(scanAddr: UInt): UInt = {
         keptApart(RegNext(Mux(rescan.busy, rescan.group.resize(groupWidth), Mux(sweep.busy, sweep.addr, scanAddr))))
       }
+      val addr = address(scan.readAddr)
       val crossAddr = address(scanCrossAddr)
-      val entry = Entry()
-      entry.assignFromBits(Cat(lane.store.map(part => RegNext(part.readSync(address(scan.readAddr))))))
+      val entry = RegNext(lane.store.readSync(addr))
       val cross = RegNext(RegNext(lane.cross.readSync(crossAddr)))
 
       /** the entry's position beside its cross word, for the sweep */
@@ -555,13 +550,10 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
   for ((lane, l) <- lanes.zipWithIndex) {
     def here(sel: UInt): Bool = laneIs(sel, l)
     val loadHere = load.write && here(load.lane)
-    // the address and the write enable registers of each RAM's own (kept apart: one address register would drive
+    // the address and the write enable registers of the lane's own (kept apart: one address register would drive
     // every RAM of the store, and the enable is identical to the score word's decision below, with which synthesis
     // would merge it: one register then drives the lane's RAM blocks and the cross state's selection apart)
-    val entryBits = RegNext(load.entry.asBits)
-    for ((part, (low, width)) <- lane.store.zip(storeParts)) {
-      part.write(keptApart(RegNext(load.addr)), entryBits(low, width bits), keptApart(RegNext(loadHere) init False))
-    }
+    lane.store.write(keptApart(RegNext(load.addr)), RegNext(load.entry), keptApart(RegNext(loadHere) init False))
     // the score word a clock later than the entry, its decision registered before the selection below (the rescan
     // that reads it starts later still)
     val scoreHere = keptApart(RegNext(loadHere) init False)
