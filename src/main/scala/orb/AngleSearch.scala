@@ -92,8 +92,8 @@ class AngleSearch(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) exten
     // `before` is a multiple of 2 step: adding the step sets its bit (no carry, no adder after the comparison)
     counts += c.insert(c(BEFORE) | (take.asUInt << shift).resize(countWidth))
   }
-  // The count unfolded over the octant's swap and the quadrant's signs: the bin is offset +- count (modulo the bins),
-  // the offset and the sign decided from the swap and the signs nodes ahead, so the unfolding is one adder.
+  // The count unfolded over the octant's swap and the quadrant's signs: the bin is offset +- count, the offset and
+  // the sign decided from the swap and the signs nodes ahead, so the unfolding is one adder.
   // With Q = swap ? 2m - count : count, the quadrants give Q, n/2 - Q, n/2 + Q and n - Q (0 for Q = 0).
   val unfold = new Area {
     val n = d.angleBins
@@ -102,12 +102,12 @@ class AngleSearch(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) exten
     val right = !early(beside.M10_NEGATIVE)
     val up = !early(beside.M01_NEGATIVE)
 
-    /** the quadrant's base and sign of Q, as (base, Q subtracted) */
+    // the quadrant's base, and whether Q is subtracted from it
     val base = Mux(right, Mux(up, U(0, bw + 1 bits), U(n, bw + 1 bits)), U(n / 2, bw + 1 bits))
     val qSubtracted = right =/= up
     // base + Q or base - Q; Q = 2m - count after a swap: the offset takes 2m in Q's sign, the count the other one
     val OFFSET = early.insert(
-      Mux(early(fold.SWAP), Mux(qSubtracted, base - 2 * d.binsPerOctant, base + 2 * d.binsPerOctant), base)
+      Mux(early(fold.SWAP), Mux(qSubtracted, base - d.binsPerQuadrant, base + d.binsPerQuadrant), base)
     )
     val SUBTRACT = early.insert(qSubtracted =/= early(fold.SWAP))
     val swapped = at(first + 4 * steps.size)

@@ -234,7 +234,8 @@ object SegmentTestConfig {
   /** the pixels' and the threshold's width */
   val valueWidth: Int = 8
 
-  /** a pixel and the centre less the threshold, as signed numbers wide enough for any difference of two values */
+  /** a pixel and the centre less the threshold as signed numbers (a sign bit and a bit of headroom over a
+    * difference of two values) */
   val signedWidth: Int = valueWidth + 2
 
   /** copies of the centre's thresholds, each compared with an arc of the circle */

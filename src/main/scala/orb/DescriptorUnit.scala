@@ -516,12 +516,14 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
       private def newCount(): UInt = Reg(UInt(log2Up(groups + 1) bits)) init groups
       val group = newCount()
       val valid = group < groups
+      // each copy tests its own value (the copies are equal): no one count's test reaches every copy
       private def counting(g: UInt): UInt = {
-        when(enable(widthOf(g)) && valid) {
+        val fetching = g < groups
+        when(enable(widthOf(g)) && fetching) {
           g := g + 1
         }
         // the slot's abandonment from copies of its own (the counts lie apart from the slots)
-        when(valid && Mux(tag, slots(1).abandonCopy(), slots(0).abandonCopy())) {
+        when(fetching && Mux(tag, slots(1).abandonCopy(), slots(0).abandonCopy())) {
           g := groups
         }
         copies += g
@@ -595,7 +597,8 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
           val part = keptApart(step(table.part(countCopy())))
         }
       }
-      val picked = step(Cat(slices.map(sl => sl.table.pick(sl.words, sl.part)))) // slice 0 in the low bits
+      // Cat of a sequence puts its first element in the low bits: slice 0 there, as in the table's words
+      val picked = step(Cat(slices.map(sl => sl.table.pick(sl.words, sl.part))))
       val bits = step(picked)
       private def field(k: Int): Bits = bits(k * (patternWidth + 1), patternWidth + 1 bits)
 

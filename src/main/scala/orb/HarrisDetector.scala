@@ -163,12 +163,14 @@ class HarrisDetector(f: FrameConfig, h: HarrisConfig, columnRows: Int, stages: H
     val compareNode = at(stages.segmentCompare)
     val arcNode = at(stages.segmentArc)
     new Area {
-      // the window in two bands of rows, each shifted by a copy of the node's valid of its own
-      val upper = lastValid(Vec(compareNode(COLUMN).slice(1, 5)), 8, validCopy(stages.segmentCompare))
-      val lower = lastValid(Vec(compareNode(COLUMN).slice(5, 8)), 8, validCopy(stages.segmentCompare))
+      // the window in two bands of rows (row indices 1 .. split and split + 1 .. 7), each shifted by a copy of the
+      // node's valid of its own: one register would enable all 448 bits of the window
+      val split = 4
+      val upper = lastValid(Vec(compareNode(COLUMN).slice(1, split + 1)), 8, validCopy(stages.segmentCompare))
+      val lower = lastValid(Vec(compareNode(COLUMN).slice(split + 1, 8)), 8, validCopy(stages.segmentCompare))
 
       /** column x - j, row index i + 1 */
-      def win(j: Int, i: Int): UInt = if (i < 4) upper(j)(i) else lower(j)(i - 4)
+      def win(j: Int, i: Int): UInt = if (i < split) upper(j)(i) else lower(j)(i - split)
       def px(dx: Int, dy: Int): UInt = win(4 - dx, 3 - dy) // dy > 0 is down, a newer row
       // centre + t and centre - t, registered a beat ahead from the pixel that becomes the centre (the window
       // advances with valid pixels), so that no adder lies before the 32 comparisons; a copy of each per arc of
@@ -176,9 +178,9 @@ class HarrisDetector(f: FrameConfig, h: HarrisConfig, columnRows: Int, stages: H
       val t = control.segmentThreshold
       val upcoming = px(1, 0)
       val copies = SegmentTestConfig.thresholdCopies
-      val brighterThan = Seq.fill(copies)(Pipes.keptApart(RegNextWhen(upcoming +^ t, compareNode.isValid)))
+      val brighterThan = Seq.fill(copies)(keptApart(RegNextWhen(upcoming +^ t, compareNode.isValid)))
       val darkerThan = Seq.fill(copies)(
-        Pipes.keptApart(RegNextWhen(
+        keptApart(RegNextWhen(
           upcoming.intoSInt.resize(SegmentTestConfig.signedWidth) - t.intoSInt.resize(SegmentTestConfig.signedWidth),
           compareNode.isValid
         ))

@@ -137,10 +137,7 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
     val full = RegNext(stored === m.storeCapacity) init False
     val room = emptied || !full
     val storedZero = emptied || groupsCompared.zero
-    // the item's score above the weakest, a register kept up to date every clock (`rescanMin` sets it), so no score
-    // comparison lies between the handshake and the store's write enables
-    val scoreAbove = Reg(Bool()) init False
-    val replace = !room && scoreAbove
+    val replace = !room && item.score > weakest.score
     val write = keyFeature && (room || replace)
     val index = Mux(room, storedNow, weakest.index)
     val entry = Entry(); entry.x := item.x; entry.y := item.y; entry.descriptor := item.descriptor
@@ -339,8 +336,7 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
     val valid = Delay(read, levels, init = False)
     val firstD = Delay(first, levels, init = False)
     val accScore = Reg(UInt(h.scoreWidth bits)); val accIndex = Reg(UInt(countWidth bits))
-    // the running lowest's comparison in two halves side by side (no carry through a whole score in its loop)
-    val takeNew = firstD || Arith.combineHalves(Arith.comparedInHalves(accScore, low, orEqual = false))
+    val takeNew = firstD || low < accScore
     when(valid && takeNew) { accScore := low; accIndex := index }
     // busy until the new weakest is in place, so that the next keyframe feature compares against it: the last
     // group's result is the one no read follows
@@ -350,18 +346,6 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
       weakest.score := accScore
       weakest.index := accIndex
     }
-  }
-
-  // `load.scoreAbove` from the next values of the item's score (the item register loads the stream's payload while
-  // it is empty) and of the weakest's: the item's compared with each score the weakest may take, side by side, the
-  // comparison picked by the registers that choose it (the rescan's result last, as above)
-  locally {
-    val nextScore = Mux(item.valid, item.score, io.features.score)
-    load.scoreAbove := Mux(
-      rescanMin.last,
-      nextScore > rescanMin.accScore,
-      Mux(load.becomesWeakest, nextScore > load.appendedScore, nextScore > weakest.score)
-    )
   }
 
   // The compare pipeline, stage by stage, side-band data delayed alongside.
