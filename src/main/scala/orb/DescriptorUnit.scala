@@ -191,6 +191,10 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
   case class CosSinLookup() extends Bundle {
     val item = ReadyCorner()
     val quadrant = UInt(2 bits)
+
+    /** the part for sin: a copy of `part` far from it in the payload, so that the register's slices (each loaded by
+      * its own flag, see `Pipes.halfPipe`) keep the two apart and each picks one of the magnitudes */
+    val partForSin = UInt(log2Up(DescriptorUnit.tableParts) bits)
     val cosWords, sinWords = Vec(UInt(magnitudeWidth bits), DescriptorUnit.tableParts)
     val part = UInt(log2Up(DescriptorUnit.tableParts) bits)
   }
@@ -201,6 +205,7 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
     o.cosWords := cosTable.wordsEach(i.within.toSeq)
     o.sinWords := sinTable.wordsEach(i.within.toSeq)
     o.part := cosTable.part(i.within.head)
+    o.partForSin := sinTable.part(i.within.last)
     o
   }
 
@@ -215,7 +220,7 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
     o.item := l.item
     o.quadrant := l.quadrant
     o.c := cosTable.pick(l.cosWords, l.part)
-    o.s := sinTable.pick(l.sinWords, l.part)
+    o.s := sinTable.pick(l.sinWords, l.partForSin)
     o
   }
 
@@ -252,15 +257,19 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
     // now unless the head left then or a row started since (the rows and their history then moved on)
     val difference = (ring.clock.row - c.startRow).asSInt
     val since = RegNext(difference)
-    val computed = RegNext(head.valid && !c.end.now && !head.fire) init False
+
+    /** whether the registers below are the head's (a copy: see `startsFrom`) */
+    def computedCopy(): Bool = RegNext(head.valid && !c.end.now && !head.fire) init False
+    val computed = computedCopy()
     val current = computed && !ring.rowStartCopy()
     // the tests on the rows since, registered beside them: the start decision only combines registers
     val early = RegNext(difference.msb) init True
     val late = RegNext(difference.asUInt >= d.slackRows) init False
-    // each row's test against the head's frame, then the one its start row names (the same entry as the row
-    // `difference` rows back whenever that is within the slack: otherwise `early` or `late` decides)
-    val goodRows = Vec(ring.history.map(row => row.active && row.frame === c.frameTag))
-    val dataOk = RegNext(goodRows(c.startRow.resize(log2Up(historyRows)))) init False
+    // the entry its start row names (the same entry as the row `difference` rows back whenever that is within the
+    // slack: otherwise `early` or `late` decides), picked first and then tested against the head's frame: one
+    // comparison after the pick, not one per entry before it
+    val startRowInfo = ring.history(c.startRow.resize(log2Up(historyRows)))
+    val dataOk = RegNext(startRowInfo.active && startRowInfo.frame === c.frameTag) init False
     val due = current && !early
     // the engine free for a corner, a clock late (never right after a start, which takes the slot)
     val free = Reg(Bool()) init False
@@ -270,7 +279,13 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
     val start, refuse = Reg(Bool()) init False
     val decided = start || refuse
     val rowStarts = ring.startsRowCopy()
-    val starts = due && !late && dataOk && free && !decided && !rowStarts
+
+    /** the start decision from `current`, its copy of `computed` less a row start */
+    def startsFrom(current: Bool): Bool = current && !early && !late && dataOk && free && !decided && !rowStarts
+    val starts = startsFrom(current)
+    // the same decision a second time, from copies of `computed` and the row start of its own (kept apart, so
+    // synthesis keeps both), for the front end's registers that take a start: each drives half of those registers
+    val startsForFront = startsFrom(keptApart(computedCopy()) && !ring.rowStartCopy())
     // kept apart from its copies below (each a register of the same value), which serve the slots and the counts
     keptApart(start)
     start := starts
@@ -293,15 +308,15 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
     // A frame end leaves when every corner before it has: the engine idle.
     val marker = head.valid && c.end.now && engine.idle
     head.ready := start || refuse || (marker && output.ready)
-    engine.begin(head.payload, base, rowsLeft, oneRowLeft, start, starts, slotStarts)
+    engine.begin(head.payload, base, rowsLeft, oneRowLeft, start, starts, startsForFront, slotStarts)
   }
 
-  /** One corner in the engine, from its start until its feature is handed on: what the front end needs of it (the
-    * bin's cos and sin, the patch's base slot, the column), its rows' deadline, and its collected tests. */
+  /** One corner in the engine, from its start until its feature is handed on: the corner, what the front end's later
+    * stages need of it (the patch's base slot, the column; the rotation is the front end's own), its rows' deadline,
+    * and its collected tests. */
   class EngineSlot(val tag: Boolean) extends Area {
     val state = RegInit(EngineState.IDLE)
     val corner = Reg(ReadyCorner())
-    val rotation = Reg(Rotation())
     val base = Reg(UInt(slotWidth bits))
     val rowsLeft = Reg(UInt(log2Up(d.slackRows + 1) bits))
 
@@ -334,28 +349,50 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
       * with one row left, or it runs on, not complete, into its last row. `abandonCopies` (kept apart) serve the
       * front end's copies of `advance`, `abandonCopy()` makes one more for another consumer far from the slot. */
     val abandon = Reg(Bool()) init False
-    val rowStarts = ring.startsRowCopy()
     // the slot's own copy of the row start (its row count and abandonment lie with it)
     val rowStart = ring.rowStartCopy()
-    val abandonNext = rowStarts && Mux(
+
+    /** the abandonment in the next clock, given a copy of the row start a clock ahead */
+    def abandonsAt(rowStarts: Bool): Bool = rowStarts && Mux(
       begins,
       beginsOnLastRow,
       running && !abandon && !collectsLast && Mux(rowStart, onSecondLastRow, onLastRow)
     )
+    val abandonNext = abandonsAt(ring.startsRowCopy())
     abandon := abandonNext
     def abandonCopy(): Bool = {
       keptApart(RegNext(abandonNext) init False)
     }
+
+    /** The same decision for the front end's group counts, formed again for every `DescriptorUnit.countsPerReplica`
+      * of them from a row start copy of its own (kept apart, so synthesis keeps the replicas apart): no one
+      * decision drives every count's copy across the front end. */
+    private val countReplicas = scala.collection.mutable.ArrayBuffer[Bool]()
+    private var countCopies = 0
+    def countAbandonCopy(): Bool = {
+      if (countCopies % DescriptorUnit.countsPerReplica == 0) {
+        countReplicas += abandonsAt(ring.startsRowCopy())
+      }
+      countCopies += 1
+      keptApart(RegNext(countReplicas.last) init False)
+    }
     val abandonCopies = Seq.fill(DescriptorUnit.advanceCopies / DescriptorUnit.advanceCopiesPerAbandon)(abandonCopy())
 
-    def begin(c: PreparedCorner, b: UInt, left: UInt): Unit = {
-      state := EngineState.RUN
-      corner := c.item
-      rotation := c.rotation
-      base := b
-      rowsLeft := left
-      done := 0
-      lastGroup := Bool(groups == 1)
+    /** The slot takes the corner `c` a clock after `starts && takesNext`: loaded by registers of that value (kept
+      * apart), one for the corner's fields and one for the rest, so that no one flag and no logic after it enables
+      * the whole slot. */
+    def begin(c: PreparedCorner, b: UInt, left: UInt, starts: Bool): Unit = {
+      def loadCopy(): Bool = keptApart(RegNext(starts && takesNext) init False)
+      when(loadCopy()) {
+        corner := c.item
+      }
+      when(loadCopy()) {
+        state := EngineState.RUN
+        base := b
+        rowsLeft := left
+        done := 0
+        lastGroup := Bool(groups == 1)
+      }
     }
 
     /** A group's results collected when `enables` (copies of one flag: the first for the count and the state, each
@@ -410,8 +447,9 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
       keptApart(RegInit(False))
     }
 
-    /** A corner starts when `start` (`starts` a clock ahead) with `left` rows left (`oneLeft`: one); `slotStarts`
-      * are copies of it (kept apart), one per slot, each loading that slot's registers. */
+    /** A corner starts when `start` (`starts` a clock ahead, `frontStarts` the same decision for the front end)
+      * with `left` rows left (`oneLeft`: one); `slotStarts` are copies of it (kept apart), one per slot, each
+      * turning that slot's turn flag. */
     def begin(
         c: PreparedCorner,
         b: UInt,
@@ -419,6 +457,7 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
         oneLeft: Bool,
         start: Bool,
         starts: Bool,
+        frontStarts: Bool,
         slotStarts: Seq[Bool]
     ): Unit = {
       for ((s, slotStart) <- slots.zip(slotStarts)) {
@@ -426,16 +465,17 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
         // the clock after a start: starts are at least two clocks apart)
         s.begins := keptApart(RegNext(starts && s.takesNext) init False)
         s.beginsOnLastRow := oneLeft
+        s.begin(c, b, left, starts)
         when(slotStart) {
-          when(s.takesNext) {
-            s.begin(c, b, left)
-          }
           s.takesNext := !s.takesNext
         }
       }
-      fetch.restartOn(starts)
+      fetch.restartOn(frontStarts)
       when(start) {
         fetch.tag := nextTag
+      }
+      when(keptApart(RegNext(frontStarts) init False)) {
+        rotation.fetched := c.rotation
       }
     }
 
@@ -523,7 +563,7 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
           g := g + 1
         }
         // the slot's abandonment from copies of its own (the counts lie apart from the slots)
-        when(fetching && Mux(tag, slots(1).abandonCopy(), slots(0).abandonCopy())) {
+        when(fetching && Mux(tag, slots(1).countAbandonCopy(), slots(0).countAbandonCopy())) {
           g := groups
         }
         copies += g
@@ -594,11 +634,19 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
           def countCopy(): UInt = keptApart(fetch.counter()).resize(log2Up(groups))
           val indexCopies = (0 until DescriptorUnit.tableParts).map(_ => countCopy())
           val words = Vec(table.wordsEach(indexCopies).map(step(_)))
-          val part = keptApart(step(table.part(countCopy())))
+          // the part picked in pieces of the word, each by a copy of the part of its own (kept apart)
+          val pieceWidth = (sliceWidth + DescriptorUnit.pickPieces - 1) / DescriptorUnit.pickPieces
+          val pieces = (0 until sliceWidth by pieceWidth).map { low =>
+            val part = keptApart(step(table.part(countCopy())))
+            val width = pieceWidth min (sliceWidth - low)
+            Vec(words.map(_(low, width bits)))(part)
+          }
+          // Cat of a sequence puts its first element in the low bits: the word's low piece there
+          val picked = Cat(pieces)
         }
       }
-      // Cat of a sequence puts its first element in the low bits: slice 0 there, as in the table's words
-      val picked = step(Cat(slices.map(sl => sl.table.pick(sl.words, sl.part))))
+      // slice 0 in the low bits, as in the table's words
+      val picked = step(Cat(slices.map(_.picked)))
       val bits = step(picked)
       private def field(k: Int): Bits = bits(k * (patternWidth + 1), patternWidth + 1 bits)
 
@@ -609,10 +657,13 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
       def yNegative(i: Int): Bool = field(2 * i + 1).msb
     }
 
-    // the rotation of the fetched group's slot, carried beside the pattern (the multipliers' other operands: the
+    // the rotation of the corner being fetched, carried beside the pattern (the multipliers' other operands: the
     // last step becomes their input registers)
     val rotation = new Area {
-      val fetched = pick(fetch.tag)(_.rotation)
+
+      /** loaded as a corner starts (`begin`): the front end fetches one corner's groups at a time, so its rotation
+        * needs no slot of its own (no choice by the fetch's tag, no load of it in every slot) */
+      val fetched = Reg(Rotation())
       val first = step(fetched)
       // a copy per point (kept apart), each feeding only its point's four multipliers
       val copies = (0 until pointsPerGroup).map { _ =>
@@ -1100,6 +1151,9 @@ object DescriptorUnit {
   /** slices of the test pattern's word (whole points each), each looked up and picked by copies of its own */
   val patternSlices: Int = 2
 
+  /** pieces of a pattern slice's word, each picked from the table's parts by a copy of the part of its own */
+  val pickPieces: Int = 2
+
   /** slices of the cos/sin lookup's register, each loaded by its own copy of its "empty" flag */
   val lookupParts: Int = 8
 
@@ -1108,6 +1162,9 @@ object DescriptorUnit {
 
   /** copies of `advance` served by one copy of a slot's abandonment */
   val advanceCopiesPerAbandon: Int = 4
+
+  /** group counts of the front end served by one replica of a slot's abandonment decision */
+  val countsPerReplica: Int = 6
 
   /** copies of a slot's "group collected" flag, each enabling a part of its descriptor (and one more for its count
     * and state) */

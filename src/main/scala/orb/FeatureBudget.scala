@@ -536,8 +536,11 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
   val counters = new Area {
     val deselected = Reg(f.counter()) init 0
     val dropped = Reg(f.counter()) init 0
-    // the clock's deselections registered where they arise, counted a clock later
-    val deselectNow = RegNext(U(intake.deselect).resize(2) + U(decide.deselect).resize(2)) init 0
+    // the clock's deselections registered where they arise, each on its own (the lists' and the cut's decisions
+    // lie apart), then their sum registered, then counted
+    val intakeDeselects = RegNext(intake.deselect) init False
+    val cutDeselects = RegNext(decide.deselect) init False
+    val deselectNow = RegNext(U(intakeDeselects).resize(2) + U(cutDeselects).resize(2)) init 0
     deselected := deselected + deselectNow.resize(f.counterWidth)
     dropped := dropped + frameEnd.dropped
   }

@@ -137,21 +137,30 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
     val full = RegNext(stored === m.storeCapacity) init False
     val room = emptied || !full
     val storedZero = emptied || groupsCompared.zero
-    val replace = !room && item.score > weakest.score
-    val write = keyFeature && (room || replace)
-    val index = Mux(room, storedNow, weakest.index)
+    val append = keyFeature && room
+
+    /** a keyframe feature met the full store in the last clock: it replaces the weakest entry if it is stronger,
+      * compared in the clock of the take (into a register, every clock) and decided now from registers: no
+      * comparison between the handshake or the scores and the store's enables. The item register still holds it
+      * (`halfPipe` loads the next item a clock after the take), and the weakest has not changed since (it changes a
+      * clock after an append, or at a rescan's end, both at least a clock before a take). */
+    val metFull = RegNext(keyFeature && !room) init False
+    val stronger = RegNext(item.score > weakest.score) init False
+    val replace = metFull && stronger
+    val write = append || replace
+    val index = Mux(replace, weakest.index, storedNow)
     val entry = Entry(); entry.x := item.x; entry.y := item.y; entry.descriptor := item.descriptor
     val lane = index.resize(log2Up(P) max 1)
     val addr = groupOf(index, groupWidth)
     val overflow = keyFeature && !room
     when(item.fire && frame.first && isKey) { stored := 0 }
-    when(keyFeature && room) {
+    when(append) {
       stored := Mux(frame.first && isKey, U(1, countWidth bits), storedPlusOne)
     }
     // an appended feature that becomes the weakest: decided as it is taken into a register, written a clock later
     // (the next item is taken two clocks after at the earliest: `halfPipe`), so no score comparison drives the
     // weakest entry's enables
-    val becomesWeakest = RegNext(keyFeature && room && (storedZero || item.score < weakest.score)) init False
+    val becomesWeakest = RegNext(append && (storedZero || item.score < weakest.score)) init False
     val appendedScore = RegNext(item.score)
     val appendedIndex = RegNext(storedNow)
     when(becomesWeakest) {
@@ -167,7 +176,7 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
     val issuing = busy && group < m.groups
     when(issuing) { group := group + 1 }
     // a clock after the replacement: its score reaches the RAM two clocks after it, before the first read does
-    val starting = RegNext(load.keyFeature && load.replace) init False
+    val starting = RegNext(load.replace) init False
     when(starting) {
       activity := Activity.RESCAN
       group := 0
@@ -335,12 +344,52 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
     val index = Delay(base, levels) | RegNext(OHToUInt(picks)).resize(countWidth)
     val valid = Delay(read, levels, init = False)
     val firstD = Delay(first, levels, init = False)
-    val accScore = Reg(UInt(h.scoreWidth bits)); val accIndex = Reg(UInt(countWidth bits))
-    val takeNew = firstD || low < accScore
-    when(valid && takeNew) { accScore := low; accIndex := index }
-    // busy until the new weakest is in place, so that the next keyframe feature compares against it: the last
-    // group's result is the one no read follows
-    val last = RegNext(valid && !Delay(read, levels - 1, init = False)) init False
+    val odd = Delay(rescan.group.lsb, crossLatency + 1 + levels)
+
+    /** the group's result is the rescan's last (no read follows it) */
+    val lastGroup = valid && !Delay(read, levels - 1, init = False)
+    // Consecutive groups' lowest taken in pairs, as the scan does: an even group held, then the odd one after it
+    // (an even last group alone, a clock later, as if its partner came); the pair's comparison registered, its
+    // choice a clock later; the running lowest then takes a pair every other clock, its comparison registered before
+    // its choice: no comparison and choice of one loop share a clock.
+    val held = RegNext(low)
+    val heldIndex = RegNext(index)
+    val partnered = valid && odd
+    val alone = RegNext(valid && !odd && lastGroup) init False
+    val pairing = new Area {
+      val valid = RegNext(partnered || alone) init False
+      val first = RegNext((partnered || alone) && RegNext(firstD)) init False
+      val last = RegNext((partnered && lastGroup) || alone) init False
+      val a = RegNext(held)
+      val aIndex = RegNext(heldIndex)
+      val b = RegNext(low)
+      val bIndex = RegNext(index)
+      // the later group only when strictly lower (the first on ties)
+      val takeB = RegNext(partnered && low < held)
+    }
+    val candidate = new Area {
+      val valid = RegNext(pairing.valid) init False
+      val first = RegNext(pairing.first) init False
+      val last = RegNext(pairing.last) init False
+      val score = RegNext(Mux(pairing.takeB, pairing.b, pairing.a))
+      val index = RegNext(Mux(pairing.takeB, pairing.bIndex, pairing.aIndex))
+    }
+    val accScore = Reg(UInt(h.scoreWidth bits))
+    val accIndex = Reg(UInt(countWidth bits))
+    val choose = new Area {
+      val valid = RegNext(candidate.valid) init False
+      val last = RegNext(candidate.last) init False
+      val takes = RegNext(candidate.first || candidate.score < accScore)
+      val score = RegNext(candidate.score)
+      val index = RegNext(candidate.index)
+    }
+    when(choose.valid && choose.takes) {
+      accScore := choose.score
+      accIndex := choose.index
+    }
+    // busy until the new weakest is in place, so that the next keyframe feature compares against it: a clock after
+    // the last pair's choice
+    val last = RegNext(choose.last) init False
     when(last) {
       activity := Activity.IDLE
       weakest.score := accScore
@@ -439,11 +488,23 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
     // a scan's groups come back to back: the odd group comes the clock after the even one, its key a clock later
     val held = RegNext(merged)
     val heldKey = RegNext(mergedKey)
-    val pairValid = RegNext(mergedValid && odd) init False
-    val pairLast = RegNext(mergedValid && mergedGroup === groupsCompared.lessOne) init False
-    val pair = RegNext(merge(held, merged))
-    val pairTakes = RegNext(takes(held, merged))
-    val pairKey = RegNext(Mux(pairTakes, mergedKey, heldKey))
+    // The pair's three comparisons registered with its halves, its choice a clock later (as the running best's):
+    // no choice waits for a comparison in the same clock.
+    val pairing = new Area {
+      val a = RegNext(held)
+      val b = RegNext(merged)
+      val takeB = RegNext(takes(held, merged))
+      val bSecondFirst = RegNext(merged.second < held.best.distance)
+      val aSecondFirst = RegNext(held.second < merged.best.distance)
+      val valid = RegNext(mergedValid && odd) init False
+      val last = RegNext(mergedValid && mergedGroup === groupsCompared.lessOne) init False
+    }
+    val pairValid = RegNext(pairing.valid) init False
+    val pairLast = RegNext(pairing.last) init False
+    val pair = RegNext(select(pairing.a, pairing.b, pairing.takeB, pairing.bSecondFirst, pairing.aSecondFirst))
+    // the keys a clock behind: the odd group's key comes a clock after its result, the choice with it
+    val pairTakes = RegNext(pairing.takeB)
+    val pairKey = RegNext(Mux(pairTakes, RegNext(mergedKey), RegNext(heldKey)))
     // The running best starts as "none" when a scan starts (long before its first pair arrives): the first pair
     // then takes it over in the same merge as every later one (its entry 0 is real), no choice of the first.
     val acc = Reg(Best())
@@ -566,11 +627,11 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
   // Ready for the next item when nothing is busy: a register, computed from the next values of the flags it depends
   // on (the FIFO's room from its register: see `paced`), so no decision hangs on the handshake or the FIFO's
   // pointers and nothing waits for the readiness's own logic.
-  // A keyframe feature that meets a full store holds the next item a clock, whether it replaces (the rescan starts
-  // then) or not: no score comparison in the readiness's logic.
+  // A keyframe feature that meets a full store holds the next item two clocks, whether it replaces (the rescan
+  // starts then) or not: no score comparison in the readiness's logic.
   val readyNext =
     activity.getAheadValue() === Activity.IDLE && !sweep.drainingNext && !(load.keyFeature && !load.room) &&
-      (paced.roomForItem || paced.giveUp.getAheadValue())
+      !load.metFull && (paced.roomForItem || paced.giveUp.getAheadValue())
   item.ready := RegNext(readyNext) init True
 
   // The correspondence registered on its way into the FIFO (the lanes' RAMs are far from it): a scan's is pushed a
