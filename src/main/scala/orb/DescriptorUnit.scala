@@ -142,6 +142,9 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
 
     /** the row whose start means the corner's 37 smoothed rows are complete: its own row + `startRowOffset` */
     val startRow = f.rowTag()
+
+    /** `startRow` + `slackRows`: from its start on, the corner is too late (its oldest row overwritten) */
+    val lateRow = f.rowTag()
     val frameTag = f.frameTag()
     val keyframe = Bool()
     val end = FrameEndMark()
@@ -162,6 +165,7 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
   ready.io.push.valid := io.corners.valid
   ready.io.push.payload.assignSomeByName(io.corners.payload)
   ready.io.push.payload.startRow := io.corners.rowTag + OrbDescriptorConfig.startRowOffset
+  ready.io.push.payload.lateRow := io.corners.rowTag + (OrbDescriptorConfig.startRowOffset + d.slackRows)
   val queueDrop = io.corners.valid && !ready.io.push.ready
 
   /** cos and sin of a bin from a quarter of the table (`OrbDescriptorConfig.cosSin`): the magnitudes of the bin
@@ -257,14 +261,13 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
     // now unless the head left then or a row started since (the rows and their history then moved on)
     val difference = (ring.clock.row - c.startRow).asSInt
     val since = RegNext(difference)
-
-    /** whether the registers below are the head's (a copy: see `startsFrom`) */
-    def computedCopy(): Bool = RegNext(head.valid && !c.end.now && !head.fire) init False
-    val computed = computedCopy()
+    val computed = RegNext(head.valid && !c.end.now && !head.fire) init False
     val current = computed && !ring.rowStartCopy()
     // the tests on the rows since, registered beside them: the start decision only combines registers
     val early = RegNext(difference.msb) init True
-    val late = RegNext(difference.asUInt >= d.slackRows) init False
+    // (`difference` >= `slackRows` whenever it is not negative, the only case in which `late` counts: the sign of
+    // the rows since `lateRow`, one subtraction with no comparison after it)
+    val late = RegNext(!(ring.clock.row - c.lateRow).msb) init False
     // the entry its start row names (the same entry as the row `difference` rows back whenever that is within the
     // slack: otherwise `early` or `late` decides), picked first and then tested against the head's frame: one
     // comparison after the pick, not one per entry before it
@@ -279,13 +282,7 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
     val start, refuse = Reg(Bool()) init False
     val decided = start || refuse
     val rowStarts = ring.startsRowCopy()
-
-    /** the start decision from `current`, its copy of `computed` less a row start */
-    def startsFrom(current: Bool): Bool = current && !early && !late && dataOk && free && !decided && !rowStarts
-    val starts = startsFrom(current)
-    // the same decision a second time, from copies of `computed` and the row start of its own (kept apart, so
-    // synthesis keeps both), for the front end's registers that take a start: each drives half of those registers
-    val startsForFront = startsFrom(keptApart(computedCopy()) && !ring.rowStartCopy())
+    val starts = due && !late && dataOk && free && !decided && !rowStarts
     // kept apart from its copies below (each a register of the same value), which serve the slots and the counts
     keptApart(start)
     start := starts
@@ -308,7 +305,7 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
     // A frame end leaves when every corner before it has: the engine idle.
     val marker = head.valid && c.end.now && engine.idle
     head.ready := start || refuse || (marker && output.ready)
-    engine.begin(head.payload, base, rowsLeft, oneRowLeft, start, starts, startsForFront, slotStarts)
+    engine.begin(head.payload, base, rowsLeft, oneRowLeft, start, starts, slotStarts)
   }
 
   /** One corner in the engine, from its start until its feature is handed on: the corner, what the front end's later
@@ -349,32 +346,17 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
       * with one row left, or it runs on, not complete, into its last row. `abandonCopies` (kept apart) serve the
       * front end's copies of `advance`, `abandonCopy()` makes one more for another consumer far from the slot. */
     val abandon = Reg(Bool()) init False
-    // the slot's own copy of the row start (its row count and abandonment lie with it)
+    // the slot's own copies of the row start and of it a clock ahead (its row count and abandonment lie with it)
     val rowStart = ring.rowStartCopy()
-
-    /** the abandonment in the next clock, given a copy of the row start a clock ahead */
-    def abandonsAt(rowStarts: Bool): Bool = rowStarts && Mux(
+    val rowStarts = ring.startsRowCopy()
+    val abandonNext = rowStarts && Mux(
       begins,
       beginsOnLastRow,
       running && !abandon && !collectsLast && Mux(rowStart, onSecondLastRow, onLastRow)
     )
-    val abandonNext = abandonsAt(ring.startsRowCopy())
     abandon := abandonNext
     def abandonCopy(): Bool = {
       keptApart(RegNext(abandonNext) init False)
-    }
-
-    /** The same decision for the front end's group counts, formed again for every `DescriptorUnit.countsPerReplica`
-      * of them from a row start copy of its own (kept apart, so synthesis keeps the replicas apart): no one
-      * decision drives every count's copy across the front end. */
-    private val countReplicas = scala.collection.mutable.ArrayBuffer[Bool]()
-    private var countCopies = 0
-    def countAbandonCopy(): Bool = {
-      if (countCopies % DescriptorUnit.countsPerReplica == 0) {
-        countReplicas += abandonsAt(ring.startsRowCopy())
-      }
-      countCopies += 1
-      keptApart(RegNext(countReplicas.last) init False)
     }
     val abandonCopies = Seq.fill(DescriptorUnit.advanceCopies / DescriptorUnit.advanceCopiesPerAbandon)(abandonCopy())
 
@@ -447,9 +429,8 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
       keptApart(RegInit(False))
     }
 
-    /** A corner starts when `start` (`starts` a clock ahead, `frontStarts` the same decision for the front end)
-      * with `left` rows left (`oneLeft`: one); `slotStarts` are copies of it (kept apart), one per slot, each
-      * turning that slot's turn flag. */
+    /** A corner starts when `start` (`starts` a clock ahead) with `left` rows left (`oneLeft`: one); `slotStarts`
+      * are copies of it (kept apart), one per slot, each turning that slot's turn flag. */
     def begin(
         c: PreparedCorner,
         b: UInt,
@@ -457,7 +438,6 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
         oneLeft: Bool,
         start: Bool,
         starts: Bool,
-        frontStarts: Bool,
         slotStarts: Seq[Bool]
     ): Unit = {
       for ((s, slotStart) <- slots.zip(slotStarts)) {
@@ -470,11 +450,11 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
           s.takesNext := !s.takesNext
         }
       }
-      fetch.restartOn(frontStarts)
+      fetch.restartOn(starts)
       when(start) {
         fetch.tag := nextTag
       }
-      when(keptApart(RegNext(frontStarts) init False)) {
+      when(keptApart(RegNext(starts) init False)) {
         rotation.fetched := c.rotation
       }
     }
@@ -563,7 +543,7 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
           g := g + 1
         }
         // the slot's abandonment from copies of its own (the counts lie apart from the slots)
-        when(fetching && Mux(tag, slots(1).countAbandonCopy(), slots(0).countAbandonCopy())) {
+        when(fetching && Mux(tag, slots(1).abandonCopy(), slots(0).abandonCopy())) {
           g := groups
         }
         copies += g
@@ -1162,9 +1142,6 @@ object DescriptorUnit {
 
   /** copies of `advance` served by one copy of a slot's abandonment */
   val advanceCopiesPerAbandon: Int = 4
-
-  /** group counts of the front end served by one replica of a slot's abandonment decision */
-  val countsPerReplica: Int = 6
 
   /** copies of a slot's "group collected" flag, each enabling a part of its descriptor (and one more for its count
     * and state) */
