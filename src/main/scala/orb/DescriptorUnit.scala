@@ -142,9 +142,6 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
 
     /** the row whose start means the corner's 37 smoothed rows are complete: its own row + `startRowOffset` */
     val startRow = f.rowTag()
-
-    /** `startRow` + `slackRows`: from its start on, the corner is too late (its oldest row overwritten) */
-    val lateRow = f.rowTag()
     val frameTag = f.frameTag()
     val keyframe = Bool()
     val end = FrameEndMark()
@@ -165,7 +162,6 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
   ready.io.push.valid := io.corners.valid
   ready.io.push.payload.assignSomeByName(io.corners.payload)
   ready.io.push.payload.startRow := io.corners.rowTag + OrbDescriptorConfig.startRowOffset
-  ready.io.push.payload.lateRow := io.corners.rowTag + (OrbDescriptorConfig.startRowOffset + d.slackRows)
   val queueDrop = io.corners.valid && !ready.io.push.ready
 
   /** cos and sin of a bin from a quarter of the table (`OrbDescriptorConfig.cosSin`): the magnitudes of the bin
@@ -195,10 +191,6 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
   case class CosSinLookup() extends Bundle {
     val item = ReadyCorner()
     val quadrant = UInt(2 bits)
-
-    /** the part for sin: a copy of `part` far from it in the payload, so that the register's slices (each loaded by
-      * its own flag, see `Pipes.halfPipe`) keep the two apart and each picks one of the magnitudes */
-    val partForSin = UInt(log2Up(DescriptorUnit.tableParts) bits)
     val cosWords, sinWords = Vec(UInt(magnitudeWidth bits), DescriptorUnit.tableParts)
     val part = UInt(log2Up(DescriptorUnit.tableParts) bits)
   }
@@ -209,7 +201,6 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
     o.cosWords := cosTable.wordsEach(i.within.toSeq)
     o.sinWords := sinTable.wordsEach(i.within.toSeq)
     o.part := cosTable.part(i.within.head)
-    o.partForSin := sinTable.part(i.within.last)
     o
   }
 
@@ -224,7 +215,7 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
     o.item := l.item
     o.quadrant := l.quadrant
     o.c := cosTable.pick(l.cosWords, l.part)
-    o.s := sinTable.pick(l.sinWords, l.partForSin)
+    o.s := sinTable.pick(l.sinWords, l.part)
     o
   }
 
@@ -265,14 +256,11 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
     val current = computed && !ring.rowStartCopy()
     // the tests on the rows since, registered beside them: the start decision only combines registers
     val early = RegNext(difference.msb) init True
-    // (`difference` >= `slackRows` whenever it is not negative, the only case in which `late` counts: the sign of
-    // the rows since `lateRow`, one subtraction with no comparison after it)
-    val late = RegNext(!(ring.clock.row - c.lateRow).msb) init False
-    // the entry its start row names (the same entry as the row `difference` rows back whenever that is within the
-    // slack: otherwise `early` or `late` decides), picked first and then tested against the head's frame: one
-    // comparison after the pick, not one per entry before it
-    val startRowInfo = ring.history(c.startRow.resize(log2Up(historyRows)))
-    val dataOk = RegNext(startRowInfo.active && startRowInfo.frame === c.frameTag) init False
+    val late = RegNext(difference.asUInt >= d.slackRows) init False
+    // each row's test against the head's frame, then the one its start row names (the same entry as the row
+    // `difference` rows back whenever that is within the slack: otherwise `early` or `late` decides)
+    val goodRows = Vec(ring.history.map(row => row.active && row.frame === c.frameTag))
+    val dataOk = RegNext(goodRows(c.startRow.resize(log2Up(historyRows)))) init False
     val due = current && !early
     // the engine free for a corner, a clock late (never right after a start, which takes the slot)
     val free = Reg(Bool()) init False
@@ -346,9 +334,9 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
       * with one row left, or it runs on, not complete, into its last row. `abandonCopies` (kept apart) serve the
       * front end's copies of `advance`, `abandonCopy()` makes one more for another consumer far from the slot. */
     val abandon = Reg(Bool()) init False
-    // the slot's own copies of the row start and of it a clock ahead (its row count and abandonment lie with it)
-    val rowStart = ring.rowStartCopy()
     val rowStarts = ring.startsRowCopy()
+    // the slot's own copy of the row start (its row count and abandonment lie with it)
+    val rowStart = ring.rowStartCopy()
     val abandonNext = rowStarts && Mux(
       begins,
       beginsOnLastRow,
@@ -360,21 +348,13 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
     }
     val abandonCopies = Seq.fill(DescriptorUnit.advanceCopies / DescriptorUnit.advanceCopiesPerAbandon)(abandonCopy())
 
-    /** The slot takes the corner `c` a clock after `starts && takesNext`: loaded by registers of that value (kept
-      * apart), one for the corner's fields and one for the rest, so that no one flag and no logic after it enables
-      * the whole slot. */
-    def begin(c: PreparedCorner, b: UInt, left: UInt, starts: Bool): Unit = {
-      def loadCopy(): Bool = keptApart(RegNext(starts && takesNext) init False)
-      when(loadCopy()) {
-        corner := c.item
-      }
-      when(loadCopy()) {
-        state := EngineState.RUN
-        base := b
-        rowsLeft := left
-        done := 0
-        lastGroup := Bool(groups == 1)
-      }
+    def begin(c: PreparedCorner, b: UInt, left: UInt): Unit = {
+      state := EngineState.RUN
+      corner := c.item
+      base := b
+      rowsLeft := left
+      done := 0
+      lastGroup := Bool(groups == 1)
     }
 
     /** A group's results collected when `enables` (copies of one flag: the first for the count and the state, each
@@ -430,7 +410,7 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
     }
 
     /** A corner starts when `start` (`starts` a clock ahead) with `left` rows left (`oneLeft`: one); `slotStarts`
-      * are copies of it (kept apart), one per slot, each turning that slot's turn flag. */
+      * are copies of it (kept apart), one per slot, each loading that slot's registers. */
     def begin(
         c: PreparedCorner,
         b: UInt,
@@ -445,16 +425,16 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
         // the clock after a start: starts are at least two clocks apart)
         s.begins := keptApart(RegNext(starts && s.takesNext) init False)
         s.beginsOnLastRow := oneLeft
-        s.begin(c, b, left, starts)
         when(slotStart) {
+          when(s.takesNext) {
+            s.begin(c, b, left)
+          }
           s.takesNext := !s.takesNext
         }
       }
       fetch.restartOn(starts)
       when(start) {
         fetch.tag := nextTag
-      }
-      when(keptApart(RegNext(starts) init False)) {
         rotation.fetched := c.rotation
       }
     }
@@ -614,19 +594,11 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
           def countCopy(): UInt = keptApart(fetch.counter()).resize(log2Up(groups))
           val indexCopies = (0 until DescriptorUnit.tableParts).map(_ => countCopy())
           val words = Vec(table.wordsEach(indexCopies).map(step(_)))
-          // the part picked in pieces of the word, each by a copy of the part of its own (kept apart)
-          val pieceWidth = (sliceWidth + DescriptorUnit.pickPieces - 1) / DescriptorUnit.pickPieces
-          val pieces = (0 until sliceWidth by pieceWidth).map { low =>
-            val part = keptApart(step(table.part(countCopy())))
-            val width = pieceWidth min (sliceWidth - low)
-            Vec(words.map(_(low, width bits)))(part)
-          }
-          // Cat of a sequence puts its first element in the low bits: the word's low piece there
-          val picked = Cat(pieces)
+          val part = keptApart(step(table.part(countCopy())))
         }
       }
-      // slice 0 in the low bits, as in the table's words
-      val picked = step(Cat(slices.map(_.picked)))
+      // Cat of a sequence puts its first element in the low bits: slice 0 there, as in the table's words
+      val picked = step(Cat(slices.map(sl => sl.table.pick(sl.words, sl.part))))
       val bits = step(picked)
       private def field(k: Int): Bits = bits(k * (patternWidth + 1), patternWidth + 1 bits)
 
@@ -641,8 +613,8 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
     // last step becomes their input registers)
     val rotation = new Area {
 
-      /** loaded as a corner starts (`begin`): the front end fetches one corner's groups at a time, so its rotation
-        * needs no slot of its own (no choice by the fetch's tag, no load of it in every slot) */
+      /** loaded as a corner starts (`begin`, with the fetch's tag): the front end fetches one corner's groups at a
+        * time, so its rotation needs no register in every slot and no choice by the tag */
       val fetched = Reg(Rotation())
       val first = step(fetched)
       // a copy per point (kept apart), each feeding only its point's four multipliers
@@ -1130,9 +1102,6 @@ object DescriptorUnit {
 
   /** slices of the test pattern's word (whole points each), each looked up and picked by copies of its own */
   val patternSlices: Int = 2
-
-  /** pieces of a pattern slice's word, each picked from the table's parts by a copy of the part of its own */
-  val pickPieces: Int = 2
 
   /** slices of the cos/sin lookup's register, each loaded by its own copy of its "empty" flag */
   val lookupParts: Int = 8
