@@ -139,12 +139,15 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
     val storedZero = emptied || groupsCompared.zero
     val append = keyFeature && room
 
+    /** a keyframe feature meets the full store: counted as overflow, kept only if it replaces the weakest */
+    val meetsFull = keyFeature && !room
+
     /** a keyframe feature met the full store in the last clock: it replaces the weakest entry if it is stronger,
       * compared in the clock of the take (into a register, every clock) and decided now from registers: no
       * comparison between the handshake or the scores and the store's enables. The item register still holds it
       * (`halfPipe` loads the next item a clock after the take), and the weakest has not changed since (it changes a
       * clock after an append, or at a rescan's end, both at least a clock before a take). */
-    val metFull = RegNext(keyFeature && !room) init False
+    val metFull = RegNext(meetsFull) init False
     val stronger = RegNext(item.score > weakest.score) init False
     val replace = metFull && stronger
     val write = append || replace
@@ -152,7 +155,7 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
     val entry = Entry(); entry.x := item.x; entry.y := item.y; entry.descriptor := item.descriptor
     val lane = index.resize(log2Up(P) max 1)
     val addr = groupOf(index, groupWidth)
-    val overflow = keyFeature && !room
+    val overflow = meetsFull
     when(item.fire && frame.first && isKey) { stored := 0 }
     when(append) {
       stored := Mux(frame.first && isKey, U(1, countWidth bits), storedPlusOne)
@@ -630,7 +633,7 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
   // A keyframe feature that meets a full store holds the next item two clocks, whether it replaces (the rescan
   // starts then) or not: no score comparison in the readiness's logic.
   val readyNext =
-    activity.getAheadValue() === Activity.IDLE && !sweep.drainingNext && !(load.keyFeature && !load.room) &&
+    activity.getAheadValue() === Activity.IDLE && !sweep.drainingNext && !load.meetsFull &&
       !load.metFull && (paced.roomForItem || paced.giveUp.getAheadValue())
   item.ready := RegNext(readyNext) init True
 
