@@ -7,9 +7,9 @@ import spinal.lib.misc.pipeline._
 
 /** The orientation bin of (m10, m01) without a divider, as `orb.model.OrbModel.angleBin`: fold into the first
   * octant (signs, swap so that b <= a), count the bin boundaries below the angle with a binary search, one
-  * comparison b 2^F >= a T_j per step, unfold. One corner per clock; latency `4 steps + 5`: a step looks up the
-  * tangent it tries (into a register), multiplies a's two parts by it in two multiplier blocks (plain registers on
-  * both sides of each product), adds the partial products and compares. */
+  * comparison b 2^F >= a T_j per step, unfold. One corner per clock; latency `4 steps + 5`: a step multiplies a's
+  * two parts by the tangent it tries in two multiplier blocks (plain registers on both sides of each product; the
+  * tangent picked from the two the step before looked up), adds the partial products and compares. */
 class AngleSearch(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) extends Component {
   val io = new Bundle {
     val input = slave Flow (OrientedCorner(f, h, d))
@@ -54,43 +54,81 @@ class AngleSearch(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) exten
     val B = n.insert(Mux(n(SWAP), n(AX), n(AY)))
   }
 
-  /** the node of the first step's lookup */
+  /** the node of the first step's multiplier input */
   val first = 3
-  // Step i tries to add `step` to the count of the steps before it: the T_j it tries at node first + 4i, the partial
-  // products of the registered a and T_j a node later, their sum the node after, the comparison the next.
+  val fracBits = d.tanFracBits
+
+  /** Step `i`'s tangent for a count of the steps before it: `before` is a sum of larger steps (powers of two), a
+    * multiple of 2 step, so the index it tries, before + step - 1, is looked up by before / step in a table of the
+    * step's own indices (no adder before the lookup). An index past the octant is never tried (`inRange`); its entry
+    * repeats the one without the quotient's top bit, so that (m a power of two) the table does not depend on that
+    * bit: no entry forced to 0 by it, which synthesis would make a reset of the multipliers' input register. */
+  case class StepTable(i: Int) {
+    val step = steps(i)
+    val shift = log2Up(step)
+    val quotientWidth = countWidth - shift
+    def tried(q: Int): Int = q * step + step - 1
+    val half = 1 << (quotientWidth - 1)
+    def entry(q: Int): Long =
+      if (tried(q) < m) tangents(tried(q)) else if (q >= half && tried(q - half) < m) tangents(tried(q - half)) else 0L
+    def quotient(before: UInt): UInt = before(countWidth - 1 downto shift)
+    def tangent(before: UInt): UInt =
+      Vec((0 until (1 << quotientWidth)).map(q => U(entry(q), tWidth bits)))(quotient(before))
+    def inRange(before: UInt): Bool = Vec((0 until (1 << quotientWidth)).map(q => Bool(tried(q) < m)))(quotient(before))
+  }
+  val tables = steps.indices.map(StepTable)
+
+  // Step i tries to add its step to the count of the steps before it: its tangent enters the multipliers' input
+  // registers at node first + 4i, the partial products of a and T_j come a node later, their sum the node after, the
+  // comparison the next. The next step's two possible tangents (for this step's bit clear or set) are looked up from
+  // the count before this step while it compares, into registers: the bit only picks one of them.
   val counts = scala.collection.mutable.ArrayBuffer[Payload[UInt]]()
-  for ((step, i) <- steps.zipWithIndex) {
+  val candidates = scala.collection.mutable.ArrayBuffer[(Payload[UInt], Payload[UInt])]()
+  for (i <- steps.indices) {
+    val table = tables(i)
     val n = at(first + 4 * i)
     val before = if (i == 0) U(0, countWidth bits) else n(counts(i - 1))
     val BEFORE = n.insert(before)
-    // `before` is a sum of larger steps (powers of two), a multiple of 2 step: the index it tries, before + step - 1,
-    // is looked up by before / step in a table of this step's own indices (no adder before the lookup)
-    val shift = log2Up(step)
-    val quotient = before(countWidth - 1 downto shift)
-    def tried(q: Int): Int = q * step + step - 1
-    // an index past the octant is never tried (TRY); its entry repeats the one without the quotient's top bit, so
-    // that (m a power of two) the table does not depend on that bit: no entry forced to 0 by it, which synthesis
-    // would make a reset of the multipliers' input register
-    val half = 1 << (quotient.getWidth - 1)
-    def entry(q: Int): Long =
-      if (tried(q) < m) tangents(tried(q)) else if (q >= half && tried(q - half) < m) tangents(tried(q - half)) else 0L
-    val table = Vec((0 until (1 << quotient.getWidth)).map(q => U(entry(q), tWidth bits)))
-    val inRange = Vec((0 until (1 << quotient.getWidth)).map(q => Bool(tried(q) < m)))
-    val TRY = n.insert(inRange(quotient) && n(fold.A) =/= 0)
+    val TRY = n.insert(table.inRange(before) && n(fold.A) =/= 0)
+    val lookedUp =
+      if (i == 0) table.tangent(before)
+      else {
+        val (without, withBit) = candidates(i - 1)
+        Mux(before(tables(i - 1).shift), n(withBit), n(without))
+      }
     val p = at(first + 4 * i + 1)
     // a's and T_j's copies that feed only the multipliers (their input registers): loaded with the step's valid
     // and kept apart, so that neither is merged with a twin (the pipeline's register of a, a bit of T_j equal to
     // one of `before`) that feeds more than multipliers
     val aForProducts = keptApart(RegNextWhen(n(fold.A), n.isValid))
-    val tangent = keptApart(RegNextWhen(table(quotient), n.isValid))
+    val tangent = keptApart(RegNextWhen(lookedUp, n.isValid))
     val LO = p.insert(aForProducts(loWidth - 1 downto 0) * tangent)
     val HI = p.insert(aForProducts(momentWidth - 1 downto loWidth) * tangent)
+    // b 2^F >= a T_j = P exactly when b >= ceil(P / 2^F): the sum forms P / 2^F and whether P has a fraction, so
+    // that the comparison is as wide as b, not as P
     val s = at(first + 4 * i + 2)
-    val PRODUCT = s.insert((s(HI) << loWidth).resize(momentWidth + tWidth) + s(LO).resize(momentWidth + tWidth))
+    val (whole, fraction) =
+      if (fracBits <= loWidth) {
+        val w = (s(HI).getWidth + loWidth - fracBits) max (s(LO).getWidth - fracBits)
+        val sum = (s(HI) << (loWidth - fracBits)).resize(w + 1) + (s(LO) >> fracBits).resize(w + 1)
+        (sum, s(LO)(fracBits - 1 downto 0) =/= 0)
+      } else {
+        val product = (s(HI) << loWidth).resize(momentWidth + tWidth) + s(LO).resize(momentWidth + tWidth)
+        (product >> fracBits, product(fracBits - 1 downto 0) =/= 0)
+      }
+    val WHOLE = s.insert(whole)
+    val FRACTION = s.insert(fraction)
     val c = at(first + 4 * i + 3)
-    val take = c(TRY) && ((c(fold.B).resize(momentWidth + d.tanFracBits) |<< d.tanFracBits) >= c(PRODUCT))
+    // b >= whole + fraction, as 2b + 1 > 2 whole + fraction: one comparison
+    val cw = (momentWidth max c(WHOLE).getWidth) + 1
+    val take = c(TRY) && ((c(fold.B).resize(cw - 1) @@ True) > (c(WHOLE).resize(cw - 1) @@ c(FRACTION)))
     // `before` is a multiple of 2 step: adding the step sets its bit (no carry, no adder after the comparison)
-    counts += c.insert(c(BEFORE) | (take.asUInt << shift).resize(countWidth))
+    counts += c.insert(c(BEFORE) | (take.asUInt << table.shift).resize(countWidth))
+    if (i + 1 < steps.size) {
+      val next = tables(i + 1)
+      val withBit = c(BEFORE) | U(table.step, countWidth bits)
+      candidates += ((c.insert(next.tangent(c(BEFORE))), c.insert(next.tangent(withBit))))
+    }
   }
   // The count unfolded over the octant's swap and the quadrant's signs: the bin is offset +- count, the offset and
   // the sign decided from the swap and the signs nodes ahead, so the unfolding is one adder.

@@ -79,11 +79,15 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
     // the smoother's beat registered here first (kept apart from the detector's copies of the same position: no row
     // or slot decision hangs on the long wires from it), its row and frame starts compared a clock ahead
     val s = keptApart(io.smoothed.stage())
-    val startsRow = RegNext(io.smoothed.valid && io.smoothed.pixel.x === 0) init False
+    // Only processed rows count and are written: after a fault in a frame the ring stands still until the next
+    // processed frame, so the rows of the corners it already has stay until their descriptors are done (the rows
+    // a broken stream sends then, however short, overwrite nothing), as the model assumes.
+    def rowStarts: Bool = io.smoothed.valid && io.smoothed.pixel.x === 0 && io.smoothed.pixel.active
+    val startsRow = RegNext(rowStarts) init False
 
     /** a copy of `startsRow` (kept apart) for a consumer far from the ring's slot and row registers */
     def startsRowCopy(): Bool = {
-      keptApart(RegNext(io.smoothed.valid && io.smoothed.pixel.x === 0) init False)
+      keptApart(RegNext(rowStarts) init False)
     }
     val startsFrame = RegNext(io.smoothed.valid && io.smoothed.pixel.x === 0 && io.smoothed.pixel.y === 0) init False
     val slot = Reg(UInt(slotWidth bits)) init 0
@@ -119,7 +123,9 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
     val writeBank = Bits(banks bits)
     for (k <- 0 until writeClusters) {
       val moves = startsRowCopy() && keptApart(RegNext(leavesBankNext) init False)
-      val writesHere = keptApart(RegNext(io.smoothed.valid && io.smoothed.pixel.x >= blurRadius) init False)
+      val writesHere = keptApart(
+        RegNext(io.smoothed.valid && io.smoothed.pixel.active && io.smoothed.pixel.x >= blurRadius) init False
+      )
       for (b <- 4 * k until (4 * k + 4 min banks)) {
         val next = Mux(moves, bank((b + banks - 1) % banks), bank(b))
         bank(b) := next
@@ -262,6 +268,9 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
     val goodRows = Vec(ring.history.map(row => row.active && row.frame === c.frameTag))
     val dataOk = RegNext(goodRows(c.startRow.resize(log2Up(historyRows)))) init False
     val due = current && !early
+    // the head's frame is over at the ring (a frame started since): a head not yet due never will be (its start
+    // row was not processed: the ring stood still from a fault to the frame's end)
+    val over = RegNext(c.frameTag =/= ring.clock.frame) init False
     // the engine free for a corner, a clock late (never right after a start, which takes the slot)
     val free = Reg(Bool()) init False
     // the decisions registered; a row start in the clock of a start (known a clock ahead) holds it. A head that is
@@ -274,7 +283,7 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
     // kept apart from its copies below (each a register of the same value), which serve the slots and the counts
     keptApart(start)
     start := starts
-    refuse := due && (late || !dataOk) && !decided
+    refuse := current && Mux(early, over, late || !dataOk) && !decided
     // a copy of `start` per engine slot (kept apart): each loads its slot's corner
     val slotStarts = Seq.fill(2) {
       keptApart(RegNext(starts) init False)
@@ -287,13 +296,13 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
     val leftWidth = log2Up(d.slackRows + 1)
     val left = (S(d.slackRows, leftWidth + 1 bits) - since.resize(leftWidth + 1)).asUInt.resize(leftWidth)
     val rowsLeft = RegNext(left)
-    // and whether it is one, registered beside it: a slot's abandonment decision only combines registers
-    val oneRowLeft = RegNext(left === 1) init False
+    // whether it is one, with `starts` (a slot registers both as it takes the corner)
+    val oneRowLeftNext = left === 1
     free := engine.canBegin && !start
     // A frame end leaves when every corner before it has: the engine idle.
     val marker = head.valid && c.end.now && engine.idle
     head.ready := start || refuse || (marker && output.ready)
-    engine.begin(head.payload, base, rowsLeft, oneRowLeft, start, starts, slotStarts)
+    engine.begin(head.payload, base, rowsLeft, oneRowLeftNext, start, starts, slotStarts)
   }
 
   /** One corner in the engine, from its start until its feature is handed on: the corner, what the front end's later
@@ -316,32 +325,28 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
     val takesNext = keptApart(RegInit(Bool(!tag)))
     val leavesNext = keptApart(RegInit(Bool(!tag)))
 
-    /** its patch's oldest row goes at the next row start (`rowsLeft === 1`), or at the one after (`=== 2`):
-      * registers beside the count */
-    val onLastRow = RegNext(rowsLeft.getAheadValue() === 1) init False
-    val onSecondLastRow = RegNext(rowsLeft.getAheadValue() === 2) init False
+    /** it runs, not abandoned, on its last row: its patch's oldest row goes at the next row start (`rowsLeft` is 1),
+      * or at the one after when a row starts now (2) */
+    val atRisk = Bool()
 
-    /** the slot takes a corner in this clock (a register: see `DescriptorEngine.begin`); whether the head has one
-      * row left (every clock: it means the taken corner's only while `begins`) */
-    val begins, beginsOnLastRow = Bool()
+    /** the slot takes a corner in this clock with one row left (a register: see `DescriptorEngine.begin`) */
+    val beginsOnLastRow = Bool()
 
-    /** the slot's last group is collected in this clock (unless abandoned in it) */
+    /** the slot's last group is collected in this clock (unless abandoned in it): a register (see `collected`) */
     val collectsLast = Bool()
 
     /** A row start overwrites the oldest row before the descriptor is complete: decided a clock ahead (the row start
-      * is known then) into a register, so the front end's enables do not wait for the slot's state. Whether the
-      * slot runs on its last row in the next clock, from the transitions that can lead there: it takes a corner
-      * with one row left, or it runs on, not complete, into its last row. `abandonCopies` (kept apart) serve the
-      * front end's copies of `advance`, `abandonCopy()` makes one more for another consumer far from the slot. */
+      * is known then) into a register, so the front end's enables do not wait for the slot's state. The decision
+      * combines four registers: the row start, a start with one row left, `atRisk` (the slot runs on its last row:
+      * decided a clock before from the next values of what it tests) and whether its last group is collected now.
+      * (A slot takes a corner only when idle, so a start and `atRisk` never meet.) `abandonCopies` (kept apart)
+      * serve the front end's copies of `advance`, `abandonCopy()` makes one more for another consumer far from the
+      * slot. */
     val abandon = Reg(Bool()) init False
     val rowStarts = ring.startsRowCopy()
     // the slot's own copy of the row start (its row count and abandonment lie with it)
     val rowStart = ring.rowStartCopy()
-    val abandonNext = rowStarts && Mux(
-      begins,
-      beginsOnLastRow,
-      running && !abandon && !collectsLast && Mux(rowStart, onSecondLastRow, onLastRow)
-    )
+    val abandonNext = rowStarts && (beginsOnLastRow || (atRisk && !collectsLast))
     abandon := abandonNext
     def abandonCopy(): Bool = {
       keptApart(RegNext(abandonNext) init False)
@@ -368,7 +373,7 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
           descriptor(p * partBits, partBits bits) := shifted(p * partBits, partBits bits)
         }
       }
-      collectsLast := enables.head && lastGroup
+      collectsLast := keptApart(RegNext(enables.head.getAheadValue() && lastGroup.getAheadValue()) init False)
       when(enables.head) {
         done := done + 1
         lastGroup := done === groups - 2
@@ -389,6 +394,12 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
     when(abandon) {
       state := EngineState.ABANDONED
     }
+    // from the next values of what it tests
+    val rowsLeftNext = rowsLeft.getAheadValue()
+    atRisk := RegNext(
+      state.getAheadValue() === EngineState.RUN && !abandonNext &&
+        Mux(rowStart.getAheadValue(), rowsLeftNext === 2, rowsLeftNext === 1)
+    ) init False
   }
 
   /** The engine: `begin` takes a corner into the next slot, `handOn` frees the slot whose feature left; the rest it
@@ -409,8 +420,8 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
       keptApart(RegInit(False))
     }
 
-    /** A corner starts when `start` (`starts` a clock ahead) with `left` rows left (`oneLeft`: one); `slotStarts`
-      * are copies of it (kept apart), one per slot, each loading that slot's registers. */
+    /** A corner starts when `start` (`starts` a clock ahead) with `left` rows left (`oneLeft`: one, with `starts`);
+      * `slotStarts` are copies of it (kept apart), one per slot, each loading that slot's registers. */
     def begin(
         c: PreparedCorner,
         b: UInt,
@@ -421,10 +432,9 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
         slotStarts: Seq[Bool]
     ): Unit = {
       for ((s, slotStart) <- slots.zip(slotStarts)) {
-        // whether the corner starts in this slot, a register of its own (the slot's turn flag does not change in
-        // the clock after a start: starts are at least two clocks apart)
-        s.begins := keptApart(RegNext(starts && s.takesNext) init False)
-        s.beginsOnLastRow := oneLeft
+        // whether the corner starts in this slot with one row left, a register of its own (the slot's turn flag
+        // does not change in the clock after a start: starts are at least two clocks apart)
+        s.beginsOnLastRow := keptApart(RegNext(starts && s.takesNext && oneLeft) init False)
         when(slotStart) {
           when(s.takesNext) {
             s.begin(c, b, left)

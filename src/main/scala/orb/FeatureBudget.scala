@@ -165,20 +165,30 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
           * own (kept apart: one register would reach every list), from the registered count per cell */
         val inUse = (0 until k).map(i => keptApart(RegNext(U(i) < perCell.now) init False))
 
+        /** the corner ranked above each place */
+        val corner = (0 until k).map(i => rank > list(i).rank)
+
         /** the corner enters: a place in use is empty, or ranked below it (the corner is the newest: a tie keeps
           * the entry) */
-        val admits = RegNext((0 until k).map(i => inUse(i) && (!list(i).valid || rank > list(i).rank)).orR) init False
+        val admits = RegNext((0 until k).map(i => inUse(i) && (!list(i).valid || corner(i))).orR) init False
 
-        /** place a ranked above place b, for a newer than b (a < b) */
-        val above = (for (a <- 0 until k; b <- a + 1 until k) yield (a, b) -> (list(a).rank > list(b).rank)).toMap
+        /** the comparisons, registered: the relations of the entering corner to the places it meets */
+        val cornerAbove = RegNext(Vec(corner))
+
+        /** place a ranked above place b, for a newer than b (a < b): registers, not comparisons. A relation is set
+          * when the newer entry enters (from `cornerAbove`) and moves with the two entries (`relate` below); a list
+          * that gives up an entry loses its relations with it. Only full lists read them, whose entries all came in
+          * as corners, each compared with the older ones there. */
+        val above = (for (a <- 0 until k; b <- a + 1 until k) yield (a, b) -> Reg(Bool())).toMap
 
         /** the place a full list gives up: every newer place ranked above it, no older one in use ranked below it */
-        val weakest = (0 until k).map { j =>
+        val weakestNext = (0 until k).map { j =>
           val newer = (0 until j).map(a => above((a, j)))
           val older = (j + 1 until k).map(b => !inUse(b) || !above((j, b)))
-          RegNext((inUse(j) +: (newer ++ older)).reduce(_ && _)) init False
+          (inUse(j) +: (newer ++ older)).reduce(_ && _)
         }
-        val full = RegNext((0 until k).map(i => !inUse(i) || list(i).valid).andR) init False
+        val fullNext = (0 until k).map(i => !inUse(i) || list(i).valid).andR
+        val full = RegNext(fullNext) init False
 
         /** the corner's list, one copy per place and part of the entry (kept apart: each half of the score, which
           * only the emission reads, and the rest): no one register enables a whole list or entry */
@@ -207,13 +217,29 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
         fresh.score := compared.corners(bank).score
         fresh.rank := compared.ranks(l)
         // place i moves on when the freed place is i or after it: in a list that is not full the first empty one
-        // (the places before it are full), in a full one the weakest
+        // (the places before it are full), in a full one the weakest; decided with the comparisons into registers
+        // (the list does not change in between: the corner before it wrote a clock earlier)
         val freedFrom = (0 until k).map { i =>
-          if (i == 0) True else Mux(full, weakest.drop(i).orR, list(i - 1).valid)
+          if (i == 0) True
+          else RegNext(Mux(fullNext, weakestNext.drop(i).orR, list(i - 1).valid)) init False
         }
         val scoreHalf = h.scoreWidth / 2
+        val moving = (0 until k).map { i =>
+          writes(i).map(w => (w && admits && freedFrom(i)) || advances(i))
+        }
+        // the relations move with the entries: a place that takes the one before it takes its relations (with the
+        // place before an older place that moves too, else with that older place itself); place 0 takes the
+        // corner's
+        for (a <- 0 until k; b <- a + 1 until k) {
+          when(moving(a)(2)) {
+            above((a, b)) := (
+              if (a == 0) Mux(moving(b)(2), cornerAbove(b - 1), cornerAbove(b))
+              else Mux(moving(b)(2), above((a - 1, b - 1)), above((a - 1, b)))
+            )
+          }
+        }
         for (i <- 0 until k) {
-          val moves = writes(i).map(w => (w && admits && freedFrom(i)) || advances(i))
+          val moves = moving(i)
           val from = if (i == 0) fresh else list(i - 1)
           when(moves(0)) {
             list(i).score(scoreHalf - 1 downto 0) := from.score(scoreHalf - 1 downto 0)

@@ -76,8 +76,9 @@ class OrientationUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, c
     // compared at the input and delayed with the beat: a register, not a comparison, where it is used
     val frameStart =
       Delay(io.columns.valid && io.columns.pixel.x === 0 && io.columns.pixel.y === 0, latency, init = False)
-    // the row's start compared a clock ahead, from the registers before `valid` and `pixel`
-    val rowStart = RegNext(validAhead && pixelAhead.x === 0) init False
+    // the row's start compared a clock ahead, from the registers before `valid` and `pixel`; only processed rows
+    // count, as on the descriptor unit's ring (a corner's tags name rows the ring counts)
+    val rowStart = RegNext(validAhead && pixelAhead.x === 0 && pixelAhead.active) init False
     val clock = new RowClock(f, rowStart, frameStart)
   }
 
@@ -156,17 +157,17 @@ class OrientationUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, c
     val x = sums.pixelAhead.x
     val y = sums.pixelAhead.y
     val at = RegNext(y === head.lastY && x === head.lastX) init False
-    val past = RegNext(y > head.lastY || (y === head.lastY && x > head.lastX)) init False
 
-    /** the head is the one the comparisons were made with */
-    val compared = RegNext(head.valid && !head.ready) init False
+    /** the head is the one the comparisons were made with, and the stream has reached its last column (or gone
+      * past it): the pop needs no comparison of its own, so the queue's enables follow two registers */
+    val due = RegNext(head.valid && !head.ready && (y > head.lastY || (y === head.lastY && x >= head.lastX))) init False
   }
   // When `sums` shows the head's last column: the chains add it a clock later (at the beat) and hold the head's
   // moments the clock after that. Emitted only when that column was processed (no fault before it in the frame).
   // (the beat's valid from a copy of its own: the queue's registers lie apart from the chains)
   val beatValid = sums.validCopy()
-  val finishHere = beatValid && head.valid && ahead.compared && ahead.at
-  head.ready := finishHere || (head.valid && beatValid && ahead.compared && ahead.past)
+  head.ready := head.valid && beatValid && ahead.due
+  val finishHere = head.ready && ahead.at
   val staleDrop = head.fire && !finishHere // its last column went by (a frame ended early, or the queue was late)
   val faultDrop = finishHere && !sums.active
   // A new frame: what is still queued belongs to a frame that ended before its rows came.

@@ -102,6 +102,68 @@ class OrientationSpec extends AnyFunSuite {
     println(s"[orb] orientation $name: ${got.size} corners, moments and bins equal to the model, none dropped")
   }
 
+  lazy val search = CoreSim.simConfig("simWorkspace/test").compile(
+    new AngleSearch(config.frame, config.harris, config.descriptor)
+  )
+
+  test("angle search == model on moments at and beside every bin boundary, all signs, both halves of the octant") {
+    val d = config.descriptor
+    val f = d.tanFracBits
+    val r = rng("angle-search")
+    // b = ceil(a T_j / 2^F) is the smallest b that counts boundary j, b - 1 the largest that does not
+    val boundaries = for {
+      j <- d.boundaryTangents.indices
+      _ <- 0 until 6
+      a = 1L + r.nextInt(1 << 21)
+      t = d.boundaryTangents(j)
+      b0 = (BigInt(a) * t + (BigInt(1) << f) - 1) / (BigInt(1) << f)
+      b <- Seq(b0, b0 - 1) if b >= 0 && b <= a
+    } yield (a, b.toLong)
+    // a a multiple of 2^F: b = a T_j / 2^F exactly (the product has no fraction)
+    val exact = for {
+      j <- d.boundaryTangents.indices by 7
+      k <- 1 until (1 << (21 - f))
+      a = k.toLong << f
+      b <- Seq(k * d.boundaryTangents(j), k * d.boundaryTangents(j) - 1)
+    } yield (a, b)
+    val random = Seq.fill(400)((r.nextInt(1 << 21).toLong, r.nextInt(1 << 21).toLong)) ++
+      Seq((0L, 0L), (1L, 0L), (0L, 1L), (1L, 1L), ((1L << 21) - 1, (1L << 21) - 1))
+    val pairs = (boundaries ++ exact ++ random.map { case (a, b) => (a max b, a min b) }).flatMap { case (a, b) =>
+      val signs = Seq((1, 1), (-1, 1), (-1, -1), (1, -1))
+      signs.flatMap { case (sx, sy) => Seq((sx * a, sy * b), (sx * b, sy * a)) }
+    }
+    val expected = pairs.map { case (m10, m01) => (m10, m01, OrbModel.angleBin(m10, m01, d)) }
+    val got = scala.collection.mutable.ArrayBuffer[(Long, Long, Int)]()
+    search.doSim("angle-search", seed.toInt) { dut =>
+      dut.io.input.valid #= false
+      dut.io.input.payload.randomize()
+      dut.io.input.end.now #= false
+      dut.clockDomain.forkStimulus(10)
+      dut.clockDomain.waitSampling(4)
+      dut.clockDomain.onSamplings {
+        val o = dut.io.output
+        if (o.valid.toBoolean) got += ((o.m10.toLong, o.m01.toLong, o.bin.toInt))
+      }
+      for ((m10, m01) <- pairs) {
+        dut.io.input.valid #= true
+        dut.io.input.m10 #= m10
+        dut.io.input.m01 #= m01
+        dut.clockDomain.waitSampling()
+        if (r.nextInt(5) == 0) {
+          dut.io.input.valid #= false
+          dut.clockDomain.waitSampling(r.nextInt(3) + 1)
+        }
+      }
+      dut.io.input.valid #= false
+      dut.clockDomain.waitSampling(60)
+    }
+    val diffs = expected.zipAll(got, null, null).filter { case (a, b) => a != b }
+    if (diffs.nonEmpty) fail(s"${diffs.size} of ${expected.size} differ; first ${diffs.take(3).mkString("; ")}")
+    println(
+      s"[orb] angle search: ${got.size} moment pairs (${boundaries.size + exact.size} of them at or beside a boundary, in all 8 octants) equal to the model"
+    )
+  }
+
   test("moments and angle bins == model, in raster order, none lost") {
     check("orient-boxes", Patterns.boxes(120, 90, rng("orient"), n = 20), Blanking.random)
     check("orient-graf1", image("graf1.png").crop(100, 100, 320, 200), Blanking.camera)

@@ -132,6 +132,24 @@ class StreamFaultSpec extends AnyFunSuite {
     )
   }
 
+  test("a burst of 2- and 9-pixel lines while corners are in the descriptor engines: RTL == model, drops counted") {
+    // after the fault a line starts every few pixels: whatever the engines and their queue hold then must end as the
+    // model says (the descriptor unit's ring stands still, so no row of theirs is overwritten)
+    val dense = Patterns.checkerboard(240, 120, 6)
+    val f = Beat.frame(dense).toVector
+    val cut = 70 * 240 + 100
+    val burst = (0 until 60).flatMap { i =>
+      val len = if (i % 2 == 0) 2 else 9
+      (0 until len).map(x => Beat(40 + 150 * (x % 2), sof = false, eol = x == len - 1))
+    }
+    val faulty = f.take(cut) ++ burst ++ f.drop(71 * 240)
+    val (_, rtl) = harrisMaxima("short-line-burst", f ++ f ++ faulty ++ f ++ f, dense)
+    assert(rtl.counters.badFrames == 1)
+    println(
+      s"[orb] short-line-burst: ${rtl.features.size} features, ${rtl.deselected} deselected, ${rtl.featureDrops} counted drops"
+    )
+  }
+
   test("a fault a few pixels into a band's emission row: RTL == model, every corner accounted for") {
     // 6-px checkerboard crossings in 1024-px lines: 4 winners in each of the 4 cells of a band with a crossing row,
     // whose emission (a winner every few clocks) still runs when the fault's frame end reaches the budget (which
