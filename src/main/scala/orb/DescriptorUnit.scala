@@ -77,22 +77,27 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
     * into the ring slot of its row. The registers describe the stream after the newest beat. */
   val ring = new Area {
     // the smoother's beat registered here first (kept apart from the detector's copies of the same position: no row
-    // or slot decision hangs on the long wires from it), its row and frame starts compared a clock ahead
+    // or slot decision hangs on the long wires from it), its row and frame starts tested in the smoother
     val s = keptApart(io.smoothed.stage())
     // Only processed rows count and are written: after a fault in a frame the ring stands still until the next
     // processed frame, so the rows of the corners it already has stay until their descriptors are done (the rows
     // a broken stream sends then, however short, overwrite nothing), as the model assumes.
-    def rowStarts: Bool = io.smoothed.valid && io.smoothed.pixel.x === 0 && io.smoothed.pixel.active
+    def rowStarts: Bool = io.smoothed.valid && io.smoothed.rowStart
     val startsRow = RegNext(rowStarts) init False
 
     /** a copy of `startsRow` (kept apart) for a consumer far from the ring's slot and row registers */
     def startsRowCopy(): Bool = {
       keptApart(RegNext(rowStarts) init False)
     }
-    val startsFrame = RegNext(io.smoothed.valid && io.smoothed.pixel.x === 0 && io.smoothed.pixel.y === 0) init False
+    val startsFrame = RegNext(io.smoothed.valid && io.smoothed.frameStart) init False
+    // the slot, and the one after it beside it (no increment or wrap between a row start and the slot's next value)
     val slot = Reg(UInt(slotWidth bits)) init 0
-    val slotNext = Mux(startsRow, nextSlot(slot), slot)
+    val slotAfter = Reg(UInt(slotWidth bits)) init (1 % rows)
+    val slotNext = Mux(startsRow, slotAfter, slot)
     slot := slotNext
+    when(startsRow) {
+      slotAfter := nextSlot(slotAfter)
+    }
     val clock = new RowClock(f, startsRow, startsFrame)
 
     /** the newest beat started a row: a copy (kept apart) for each consumer, each beside it */
@@ -119,13 +124,20 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
     // copies of the flags (kept apart): no one register drives every bank.
     val writeClusters = (banks + 3) / 4
     val bank = Reg(Bits(banks bits)) init 1
-    val leavesBankNext = slotNext.lsb || slotNext === rows - 1
+    // whether the slot is a bank's last, for the slot and the one after it (registers beside them)
+    def leavesBank(s: UInt): Bool = s.lsb || s === rows - 1
+    def leavesBankAt(s: Int): Boolean = s % 2 == 1 || s == rows - 1
+    val leaves = RegInit(Bool(leavesBankAt(0)))
+    val leavesAfter = RegInit(Bool(leavesBankAt(1 % rows)))
+    when(startsRow) {
+      leaves := leavesAfter
+      leavesAfter := leavesBank(nextSlot(slotAfter))
+    }
+    val leavesBankNext = Mux(startsRow, leavesAfter, leaves)
     val writeBank = Bits(banks bits)
     for (k <- 0 until writeClusters) {
       val moves = startsRowCopy() && keptApart(RegNext(leavesBankNext) init False)
-      val writesHere = keptApart(
-        RegNext(io.smoothed.valid && io.smoothed.pixel.active && io.smoothed.pixel.x >= blurRadius) init False
-      )
+      val writesHere = keptApart(RegNext(io.smoothed.valid && io.smoothed.holdsSmoothed) init False)
       for (b <- 4 * k until (4 * k + 4 min banks)) {
         val next = Mux(moves, bank((b + banks - 1) % banks), bank(b))
         bank(b) := next
@@ -164,7 +176,8 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
     val item = ReadyCorner()
     val rotation = Rotation()
   }
-  val ready = StreamFifo(ReadyCorner(), d.readyQueueDepth, forFMax = true)
+  // drained an engine's run apart: its RAM's read enables wait for no readiness (`SettledFifo`)
+  val ready = new SettledFifo(ReadyCorner(), d.readyQueueDepth)
   ready.io.push.valid := io.corners.valid
   ready.io.push.payload.assignSomeByName(io.corners.payload)
   ready.io.push.payload.startRow := io.corners.rowTag + OrbDescriptorConfig.startRowOffset
@@ -246,11 +259,11 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
     * patch was complete and the tests on them (early, late, the rows' data good) are registered first, the decision
     * on them next, and the head starts a clock later unless it changed or a row starts in between. */
   val dispatch = new Area {
-    // the queue's RAM through its output register, then a register beside the lookups (the RAM lies apart from
-    // them; its readiness from two registers: no decision reaches the read pointer), then the lookups, the parts'
+    // the queue's RAM through its output register and a register behind it, then a register beside the lookups (the
+    // RAM lies apart from them; its readiness from two registers: no decision reaches the read pointer), the lookups, the parts'
     // pick and the quadrant's swap, each step with its valid and ready registered (no chain of readies from the
     // decision back to the queue): a step passes a corner every other clock, and corners are an engine's run apart
-    val indexedHead = Pipes.halfPipeKeeping(ready.io.pop.m2sPipe().map(indexed))(_.within.toSeq)
+    val indexedHead = Pipes.halfPipeKeeping(ready.io.pop.map(indexed))(_.within.toSeq)
     val lookedUp = Pipes.halfPipe(indexedHead.map(lookupCosSin), DescriptorUnit.lookupParts)
     val head = lookedUp.map(pickCosSin).halfPipe().map(prepare).halfPipe()
     val c = head.payload.item

@@ -108,13 +108,15 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
 
   // A corner into its cell's list. Each list decides beside its own registers, and each place is loaded only from
   // the place before it (place 0 from the corner), so no list is read through a multiplexer and every place has one
-  // source. The corner is ranked on the way in (three registered steps), then registered with its list decoded
-  // (one-hot), one copy of it per bank and one of its rank per list (kept apart). In the next clock each list
-  // compares into registers: the corner with every place (does it enter?) and its places with each other (which
-  // place would a full list give up?). In the clock after, the corner enters at place 0 and the places up to the
-  // freed one move one place on: the first empty place of a list that is not full, else the weakest (ranked
-  // lowest, the newest of those ranked lowest). Corners are at least two clocks apart after the 3x3 suppression, so
-  // a corner compares with its list after the one before it has updated it.
+  // source. The corner is ranked on the way in (three registered steps), then lined up with a copy of its rank per
+  // list (kept apart), which each list compares with its places into registers, then registered with its list
+  // decoded (one-hot) and one copy of it per bank. In that clock each list decides into registers from registers:
+  // does the corner enter (a place in use is empty, or ranked below it), and which place would a full list give up
+  // (from the places' relations, registers moved with the entries). In the clock after, the corner enters at place
+  // 0 and the places up to the freed one move one place on: the first empty place of a list that is not full, else
+  // the weakest (ranked lowest, the newest of those ranked lowest). Corners are at least two clocks apart after the
+  // 3x3 suppression: a corner decides on its list after the one before it has updated it, and it was compared with
+  // the list as it was before that update, which the list corrects by the moves it made.
   val intake = new Area {
     val cellWidth = log2Up(cells max 2)
     val lists = for (bank <- 0 until 2; cell <- 0 until cells) yield (bank, cell)
@@ -130,24 +132,33 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
       val corner = second.stage()
       val rank = RegNext(rankFrom(coarse, secondLead, b.rankFracBits, rankWidth))
     }
-    val bankIn = ranked.corner.y(b.bandShift downto b.bandShift)
-    val cellIn = ranked.corner.x(b.cellShift, cellWidth bits)
-    val arriving = new Area {
+
+    /** the corner a clock on, its rank with a copy per list (kept apart): each list compares it with its places */
+    val lined = new Area {
       val valid = RegNext(ranked.corner.valid) init False
-
-      /** the corner and its rank, one copy per bank (kept apart): each feeds place 0 of its bank's lists */
-      val corners = (0 until 2).map { _ =>
-        keptApart(RegNext(ranked.corner.payload))
-      }
-
-      /** its rank, one copy per list (kept apart): each feeds the comparisons of one list */
+      val corner = RegNext(ranked.corner.payload)
+      val rank = RegNext(ranked.rank)
       val ranks = lists.map { _ =>
         keptApart(RegNext(ranked.rank))
       }
+    }
+    val bankIn = lined.corner.y(b.bandShift downto b.bandShift)
+    val cellIn = lined.corner.x(b.cellShift, cellWidth bits)
+    val arriving = new Area {
+      val valid = RegNext(lined.valid) init False
+
+      /** the corner, one copy per bank (kept apart): each feeds place 0 of its bank's lists */
+      val corners = (0 until 2).map { _ =>
+        keptApart(RegNext(lined.corner))
+      }
+
+      /** its rank, one copy per list (kept apart): each feeds place 0 of one list */
+      val ranks = lined.ranks.map(r => keptApart(RegNext(r)))
+      val rank = RegNext(lined.rank)
 
       /** its list, one-hot over (bank, cell) */
       val selects =
-        RegNext(Vec(lists.map { case (bank, cell) => ranked.corner.valid && bankIn === bank && cellIn === cell }))
+        RegNext(Vec(lists.map { case (bank, cell) => lined.valid && bankIn === bank && cellIn === cell }))
       selects.foreach(_.init(False))
     }
 
@@ -155,18 +166,30 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
       val valid = RegNext(arriving.valid) init False
       val corners = arriving.corners.map(RegNext(_))
       val ranks = arriving.ranks.map(RegNext(_))
+      val rank = RegNext(arriving.rank)
     }
+
+    /** the corner lined up ranked above the one entering its list now (at place 0, for the clock after) */
+    val aboveEntering = RegNext(lined.rank > compared.rank)
     val perList =
       for (((bank, cell), l) <- lists.zipWithIndex) yield new Area {
         val list = banks(bank)(cell)
-        val rank = arriving.ranks(l)
 
         /** the list places in use in this line length (it changes only between frames), registers of the list's
           * own (kept apart: one register would reach every list), from the registered count per cell */
         val inUse = (0 until k).map(i => keptApart(RegNext(U(i) < perCell.now) init False))
 
-        /** the corner ranked above each place */
-        val corner = (0 until k).map(i => rank > list(i).rank)
+        /** the corner lined up ranked above each place as the list is then (registers) */
+        val aboveStaying = RegNext(Vec((0 until k).map(i => lined.ranks(l) > list(i).rank)))
+
+        /** which places moved in that clock (registers, set below) */
+        val moved = Vec.fill(k)(Reg(Bool()) init False)
+
+        /** the arriving corner ranked above each place: as the place was, or as the place it moved from (place 0:
+          * the corner that entered) */
+        val corner = (0 until k).map { i =>
+          Mux(moved(i), if (i == 0) aboveEntering else aboveStaying(i - 1), aboveStaying(i))
+        }
 
         /** the corner enters: a place in use is empty, or ranked below it (the corner is the newest: a tie keeps
           * the entry) */
@@ -193,7 +216,7 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
         /** the corner's list, one copy per place and part of the entry (kept apart: each half of the score, which
           * only the emission reads, and the rest): no one register enables a whole list or entry */
         val writes = (0 until k).map { _ =>
-          Seq.fill(3) {
+          Seq.fill(FeatureBudget.entryParts) {
             keptApart(RegNext(arriving.selects(l)) init False)
           }
         }
@@ -204,10 +227,12 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
 
         /** `emptying` while the last place is empty, decided a clock ahead into registers from both registers'
           * next values (no path from the list's last place or the emission to every place's enable), one copy per
-          * place (kept apart) */
+          * place and part of the entry (kept apart), as `writes` */
         val advancesNext = emptying.getAheadValue() && !list(k - 1).valid.getAheadValue()
         val advances = (0 until k).map { _ =>
-          keptApart(RegNext(advancesNext) init False)
+          Seq.fill(FeatureBudget.entryParts) {
+            keptApart(RegNext(advancesNext) init False)
+          }
         }
         // a list being emptied moves an empty entry into place 0
         val fresh = Entry()
@@ -225,7 +250,10 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
         }
         val scoreHalf = h.scoreWidth / 2
         val moving = (0 until k).map { i =>
-          writes(i).map(w => (w && admits && freedFrom(i)) || advances(i))
+          writes(i).zip(advances(i)).map { case (w, a) => (w && admits && freedFrom(i)) || a }
+        }
+        for (i <- 0 until k) {
+          moved(i) := moving(i)(2)
         }
         // the relations move with the entries: a place that takes the one before it takes its relations (with the
         // place before an older place that moves too, else with that older place itself); place 0 takes the
@@ -263,7 +291,8 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
     val deselect = perList.map(_.deselects).orR
 
     /** a corner on its way into a list */
-    val busy = ranked.first.valid || ranked.second.valid || ranked.corner.valid || arriving.valid || compared.valid
+    val busy = ranked.first.valid || ranked.second.valid || ranked.corner.valid || lined.valid || arriving.valid ||
+      compared.valid
   }
 
   // A band is complete at the first pixel of row (band end + emitRowOffset); its winners leave in raster order.
@@ -313,14 +342,16 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
       settling := settling - 1
     }
     val choosing = settling =/= 0
-    // the band's lists, each cell's picked from its bank by a copy of the bank register of its own (kept apart: one
-    // register would choose every entry)
+    // the band's lists, each cell's picked from its bank by copies of the bank register of its own (kept apart: one
+    // register would choose every entry), one for the score and one for the rest of the entry
     val bankOfCell = (0 until cells).map { _ =>
-      val copy = keptApart(Reg(UInt(1 bits)) init 0)
-      when(trigger) {
-        copy := band(0 downto 0)
+      Seq.fill(2) {
+        val copy = keptApart(Reg(UInt(1 bits)) init 0)
+        when(trigger) {
+          copy := band(0 downto 0)
+        }
+        copy
       }
-      copy
     }
     val cellWidth = log2Up(cells max 2)
     case class Candidate() extends Bundle {
@@ -342,22 +373,31 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
     // chosen (they settle before the choice starts and two clocks after a winner leaves), so the comparisons and the
     // pick see the same heads.
     val heads = (0 until cells).map { cell =>
-      val e = Mux(bankOfCell(cell) === 1, banks(1)(cell)(k - 1), banks(0)(cell)(k - 1))
+      val e = Mux(bankOfCell(cell)(1) === 1, banks(1)(cell)(k - 1), banks(0)(cell)(k - 1))
       val cand = Candidate()
       cand.valid := e.valid
       cand.key := e.yOffset @@ U(cell, cellWidth bits) @@ e.xOffset
-      cand.score := e.score
+      cand.score := Mux(bankOfCell(cell)(0) === 1, banks(1)(cell)(k - 1).score, banks(0)(cell)(k - 1).score)
       cand.rank := e.rank
       cand.cell := B(BigInt(1) << cell, cells bits)
       RegNext(cand)
     }
     val before = (for (i <- 0 until cells; j <- i + 1 until cells)
       yield (i, j) -> RegNext(order(heads(i)) < order(heads(j)))).toMap
-    val wins = RegNext(Vec((0 until cells).map { i =>
+    // the one-hot twice (kept apart): one picks the score, the other the rest of the entry
+    val winsNext = Vec((0 until cells).map { i =>
       (0 until cells).filter(_ != i).map(j => if (i < j) before((i, j)) else !before((j, i))).foldLeft(True)(_ && _)
-    }))
-    wins.foreach(_.init(False))
-    val first = RegNext(MuxOH.or(wins, heads))
+    })
+    val Seq(winsScore, wins) = Seq.fill(2) {
+      val r = RegNext(winsNext)
+      r.foreach(_.init(False))
+      keptApart(r)
+    }
+    val first = RegNext({
+      val picked = MuxOH.or(wins, heads)
+      picked.score.allowOverride() := MuxOH.or(winsScore, heads.map(_.score))
+      picked
+    })
     require(FeatureBudget.choiceDepth == 4, "the heads, their comparisons, the one-hot and the pick")
     // A winner leaves at this step of its pace, `choiceDepth` clocks after the lists it was chosen from had settled
     // (the pace starts a clock after `choosing`; a list settles two clocks after its winner left).
@@ -590,6 +630,10 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
 }
 
 object FeatureBudget {
+
+  /** a list entry's parts, each loaded by an enable of its own: the score's two halves (which only the emission
+    * reads) and the rest */
+  val entryParts: Int = 3
 
   /** Clocks between two winners leaving a bank: the registered steps that choose one, and the histogram's read, its
     * registered data, the write back. */

@@ -44,6 +44,11 @@ case class LineColumn(f: FrameConfig, rows: Int) extends Bundle {
 case class SmoothedPixel(f: FrameConfig) extends Bundle {
   val pixel = TrackedPixel(f)
   val smoothed = UInt(8 bits)
+
+  /** the pixel's position tested in the smoother, a clock ahead (the consumer's row and frame decisions then come
+    * from registers): the first pixel of a processed row; the first of a frame (x = y = 0); a processed pixel that
+    * carries a smoothed one (x >= `blurRadius`: `smoothed` is pixel (x - 3, y - 3)) */
+  val rowStart, frameStart, holdsSmoothed = Bool()
 }
 
 case class CornerHw(c: FrameConfig, h: HarrisConfig) extends Bundle {

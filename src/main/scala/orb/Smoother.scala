@@ -52,10 +52,20 @@ class Smoother(f: FrameConfig, columnRows: Int) extends Component {
     val ROUNDED = at(Smoother.round).insert((sum(23 downto 16) +^ sum(15 downto 15)).resize(8))
   }
 
+  val flags = new Area {
+    val n = at(Smoother.latency - 1)
+    val p = n(PIXEL)
+    val ROW_START = n.insert(p.x === 0 && p.active)
+    val FRAME_START = n.insert(p.x === 0 && p.y === 0)
+    val HOLDS_SMOOTHED = n.insert(p.active && p.x >= OrbDescriptorConfig.blurRadius)
+  }
   val out = at(Smoother.latency)
   io.smoothed.valid := out.isValid
   io.smoothed.pixel := out(PIXEL)
   io.smoothed.smoothed := out(row.ROUNDED)
+  io.smoothed.rowStart := out(flags.ROW_START)
+  io.smoothed.frameStart := out(flags.FRAME_START)
+  io.smoothed.holdsSmoothed := out(flags.HOLDS_SMOOTHED)
 
   pipeline.build()
   Pipes.keepValidsApart(pipeline)
