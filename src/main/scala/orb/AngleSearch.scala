@@ -110,11 +110,12 @@ class AngleSearch(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) exten
     val (whole, fraction) =
       if (fracBits <= loWidth) {
         val w = (s(HI).getWidth + loWidth - fracBits) max (s(LO).getWidth - fracBits)
-        val sum = (s(HI) << (loWidth - fracBits)).resize(w + 1) + (s(LO) >> fracBits).resize(w + 1)
-        (sum, s(LO)(fracBits - 1 downto 0) =/= 0)
+        val lo = s(LO)
+        val sum = (s(HI) << (loWidth - fracBits)).resize(w + 1) + lo(lo.getWidth - 1 downto fracBits).resize(w + 1)
+        (sum, lo(fracBits - 1 downto 0) =/= 0)
       } else {
         val product = (s(HI) << loWidth).resize(momentWidth + tWidth) + s(LO).resize(momentWidth + tWidth)
-        (product >> fracBits, product(fracBits - 1 downto 0) =/= 0)
+        (product(product.getWidth - 1 downto fracBits), product(fracBits - 1 downto 0) =/= 0)
       }
     val WHOLE = s.insert(whole)
     val FRACTION = s.insert(fraction)

@@ -19,7 +19,8 @@ object EngineState extends SpinalEnum {
   * Store: `smoothedRows` (37 + slackRows) rows used as a ring, two per bank (`smoothedBanks` banks of
   * 2 x maxWidth bytes, two ports each); the smoothed stream writes the row of the current raw row through port A of
   * its bank. A corner's 37 rows are complete when row cy + 22 starts; from then on it has `slackRows` row starts
-  * before its oldest row is overwritten, and is dropped (counted) if it is not done by then.
+  * before its oldest row is overwritten, and is dropped (counted) if it is not done by then. Only processed rows
+  * start and are written: after a fault the ring stands still until the next processed frame.
   *
   * One engine with 4 read lanes, 2 on the banks' A ports and 2 on their B ports. Its front end takes the 256 tests
   * in 128 groups of 2: the pattern, the rotation with the bin's cos/sin (x' = round(x cos - y sin), y' = round(x sin
@@ -102,8 +103,9 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
 
     /** the newest beat started a row: a copy (kept apart) for each consumer, each beside it */
     def rowStartCopy(): Bool = keptApart(RegNext(startsRowCopy()) init False)
-    // For the last rows: was the first pixel of the row processed, and in which frame. A corner's rows are good
-    // iff the first pixel of its row cy + 22 was processed in its own frame (no fault before it): the model's rule.
+    // For the last rows: was the row written since reset (only processed rows start), and in which frame. A
+    // corner's rows are good iff the first pixel of its row cy + 22 was processed in its own frame (no fault before
+    // it): the model's rule.
     // Kept by the row's count (its low bits name the entry), so a corner finds its row's entry by its own start row,
     // with no difference of rows on the way: an entry holds its row until `historyRows` rows later, and a corner
     // reads it only within `slackRows` rows.
@@ -260,9 +262,10 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
     * on them next, and the head starts a clock later unless it changed or a row starts in between. */
   val dispatch = new Area {
     // the queue's RAM through its output register and a register behind it, then a register beside the lookups (the
-    // RAM lies apart from them; its readiness from two registers: no decision reaches the read pointer), the lookups, the parts'
-    // pick and the quadrant's swap, each step with its valid and ready registered (no chain of readies from the
-    // decision back to the queue): a step passes a corner every other clock, and corners are an engine's run apart
+    // RAM lies apart from them; its readiness from two registers: no decision reaches the read pointer), the
+    // lookups, the parts' pick and the quadrant's swap, each step with its valid and ready registered (no chain of
+    // readies from the decision back to the queue): a step passes a corner every other clock, and corners are an
+    // engine's run apart
     val indexedHead = Pipes.halfPipeKeeping(ready.io.pop.map(indexed))(_.within.toSeq)
     val lookedUp = Pipes.halfPipe(indexedHead.map(lookupCosSin), DescriptorUnit.lookupParts)
     val head = lookedUp.map(pickCosSin).halfPipe().map(prepare).halfPipe()

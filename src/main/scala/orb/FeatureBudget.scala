@@ -199,7 +199,7 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
         val cornerAbove = RegNext(Vec(corner))
 
         /** place a ranked above place b, for a newer than b (a < b): registers, not comparisons. A relation is set
-          * when the newer entry enters (from `cornerAbove`) and moves with the two entries (`relate` below); a list
+          * when the newer entry enters (from `cornerAbove`) and moves with the two entries (below, with the moves); a list
           * that gives up an entry loses its relations with it. Only full lists read them, whose entries all came in
           * as corners, each compared with the older ones there. */
         val above = (for (a <- 0 until k; b <- a + 1 until k) yield (a, b) -> Reg(Bool())).toMap
@@ -253,29 +253,29 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
           writes(i).zip(advances(i)).map { case (w, a) => (w && admits && freedFrom(i)) || a }
         }
         for (i <- 0 until k) {
-          moved(i) := moving(i)(2)
+          moved(i) := moving(i)(FeatureBudget.restPart)
         }
         // the relations move with the entries: a place that takes the one before it takes its relations (with the
         // place before an older place that moves too, else with that older place itself); place 0 takes the
         // corner's
         for (a <- 0 until k; b <- a + 1 until k) {
-          when(moving(a)(2)) {
+          when(moving(a)(FeatureBudget.restPart)) {
             above((a, b)) := (
-              if (a == 0) Mux(moving(b)(2), cornerAbove(b - 1), cornerAbove(b))
-              else Mux(moving(b)(2), above((a - 1, b - 1)), above((a - 1, b)))
+              if (a == 0) Mux(moving(b)(FeatureBudget.restPart), cornerAbove(b - 1), cornerAbove(b))
+              else Mux(moving(b)(FeatureBudget.restPart), above((a - 1, b - 1)), above((a - 1, b)))
             )
           }
         }
         for (i <- 0 until k) {
           val moves = moving(i)
           val from = if (i == 0) fresh else list(i - 1)
-          when(moves(0)) {
+          when(moves(FeatureBudget.lowScorePart)) {
             list(i).score(scoreHalf - 1 downto 0) := from.score(scoreHalf - 1 downto 0)
           }
-          when(moves(1)) {
+          when(moves(FeatureBudget.highScorePart)) {
             list(i).score(h.scoreWidth - 1 downto scoreHalf) := from.score(h.scoreWidth - 1 downto scoreHalf)
           }
-          when(moves(2)) {
+          when(moves(FeatureBudget.restPart)) {
             list(i).valid := from.valid
             list(i).xOffset := from.xOffset
             list(i).yOffset := from.yOffset
@@ -344,15 +344,15 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
     val choosing = settling =/= 0
     // the band's lists, each cell's picked from its bank by copies of the bank register of its own (kept apart: one
     // register would choose every entry), one for the score and one for the rest of the entry
-    val bankOfCell = (0 until cells).map { _ =>
-      Seq.fill(2) {
-        val copy = keptApart(Reg(UInt(1 bits)) init 0)
-        when(trigger) {
-          copy := band(0 downto 0)
-        }
-        copy
+    def bankCopy(): UInt = {
+      val copy = keptApart(Reg(UInt(1 bits)) init 0)
+      when(trigger) {
+        copy := band(0 downto 0)
       }
+      copy
     }
+    val scoreBankOfCell = Seq.fill(cells)(bankCopy())
+    val bankOfCell = Seq.fill(cells)(bankCopy())
     val cellWidth = log2Up(cells max 2)
     case class Candidate() extends Bundle {
       val valid = Bool()
@@ -373,11 +373,11 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
     // chosen (they settle before the choice starts and two clocks after a winner leaves), so the comparisons and the
     // pick see the same heads.
     val heads = (0 until cells).map { cell =>
-      val e = Mux(bankOfCell(cell)(1) === 1, banks(1)(cell)(k - 1), banks(0)(cell)(k - 1))
+      val e = Mux(bankOfCell(cell) === 1, banks(1)(cell)(k - 1), banks(0)(cell)(k - 1))
       val cand = Candidate()
       cand.valid := e.valid
       cand.key := e.yOffset @@ U(cell, cellWidth bits) @@ e.xOffset
-      cand.score := Mux(bankOfCell(cell)(0) === 1, banks(1)(cell)(k - 1).score, banks(0)(cell)(k - 1).score)
+      cand.score := Mux(scoreBankOfCell(cell) === 1, banks(1)(cell)(k - 1).score, banks(0)(cell)(k - 1).score)
       cand.rank := e.rank
       cand.cell := B(BigInt(1) << cell, cells bits)
       RegNext(cand)
@@ -633,6 +633,9 @@ object FeatureBudget {
 
   /** a list entry's parts, each loaded by an enable of its own: the score's two halves (which only the emission
     * reads) and the rest */
+  val lowScorePart: Int = 0
+  val highScorePart: Int = 1
+  val restPart: Int = 2
   val entryParts: Int = 3
 
   /** Clocks between two winners leaving a bank: the registered steps that choose one, and the histogram's read, its

@@ -160,7 +160,8 @@ class OrientationUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, c
 
     /** the head is the one the comparisons were made with, and the stream has reached its last column (or gone
       * past it): the pop needs no comparison of its own, so the queue's enables follow two registers */
-    val due = RegNext(head.valid && !head.ready && (y > head.lastY || (y === head.lastY && x >= head.lastX))) init False
+    val reached = y > head.lastY || (y === head.lastY && x >= head.lastX)
+    val due = RegNext(head.valid && !head.ready && reached) init False
   }
   // When `sums` shows the head's last column: the chains add it a clock later (at the beat) and hold the head's
   // moments the clock after that. Emitted only when that column was processed (no fault before it in the frame).

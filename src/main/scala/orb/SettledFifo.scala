@@ -6,8 +6,9 @@ import spinal.lib._
 /** A queue in one RAM for a consumer that takes an item every few clocks at most: the RAM's read port and its output
   * register are always enabled, reading the head at the read pointer every clock, so no enable pin waits for the
   * consumer's readiness (a `StreamFifo` enables its read from the pop's handshake). The head is offered once the
-  * pointer has stood still for two clocks with the head written: a pop every third clock at most, two clocks of
-  * latency more than a register. */
+  * pointer has stood still for three clocks with the head written: a pop every fourth clock at most, three clocks of
+  * latency more than a register. Full and empty are registers (from the count's next value), so the write pointer,
+  * whose next value synthesis may take into the RAM's own address register, waits for no comparison of pointers. */
 class SettledFifo[T <: Data](payloadType: HardType[T], depth: Int) extends Component {
   require(depth >= 2)
   val io = new Bundle {
@@ -15,39 +16,37 @@ class SettledFifo[T <: Data](payloadType: HardType[T], depth: Int) extends Compo
     val pop = master Stream (payloadType())
   }
   val ram = Mem(payloadType(), depth)
+  val addressWidth = log2Up(depth)
 
-  /** a place in the RAM and whether the pointer has wrapped an odd number of times */
-  case class Pointer() extends Area {
-    val at = Reg(UInt(log2Up(depth) bits)) init 0
-    val lap = Reg(Bool()) init False
-    def step(): Unit = {
-      when(at === depth - 1) {
-        at := 0
-        lap := !lap
-      } otherwise {
-        at := at + 1
-      }
-    }
-  }
-  val write = Pointer()
-  val read = Pointer()
-  val empty = write.at === read.at && write.lap === read.lap
-  val full = write.at === read.at && write.lap =/= read.lap
+  /** the next place after `at` (a power-of-two depth wraps by itself) */
+  def after(at: UInt): UInt = if (isPow2(depth)) at + 1 else Mux(at === depth - 1, U(0, addressWidth bits), at + 1)
+  val writeAt, readAt = Reg(UInt(addressWidth bits)) init 0
+  val count = Reg(UInt(log2Up(depth + 1) bits)) init 0
+  val full = RegInit(False)
+  val empty = RegInit(True)
   io.push.ready := !full
-  ram.write(write.at, io.push.payload, enable = io.push.fire)
-  when(io.push.fire) {
-    write.step()
-  }
+  val pushed = io.push.fire
   val popped = io.pop.fire
-  when(popped) {
-    read.step()
+  ram.write(writeAt, io.push.payload, enable = pushed)
+  when(pushed) {
+    writeAt := after(writeAt)
   }
-  // the RAM's output register and a plain register behind it (the block's output register), both always enabled
-  val head = RegNext(ram.readSync(read.at))
+  when(popped) {
+    readAt := after(readAt)
+  }
+  val countNext = count + U(pushed).resize(count.getWidth) - U(popped).resize(count.getWidth)
+  count := countNext
+  full := countNext === depth
+  empty := countNext === 0
 
-  /** the head's place was read while it held the head (not empty, no pop), and registered a clock later */
-  val reading = RegNext(!empty && !popped) init False
-  val settled = RegNext(reading && !popped) init False
+  // the read address a plain copy of the pointer (the RAM's address register: no logic between the pointer's
+  // register and the RAM), the RAM's output register and a plain register behind it (the block's output register),
+  // all always enabled
+  val address = RegNext(readAt)
+  val head = RegNext(ram.readSync(address))
+
+  /** the pointer held the head (not empty, no pop) for the address, the read and the output register */
+  val settled = (0 until 3).foldLeft(!empty && !popped)((held, _) => RegNext(held && !popped) init False)
   io.pop.valid := settled
   io.pop.payload := head
 }

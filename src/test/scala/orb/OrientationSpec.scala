@@ -159,8 +159,9 @@ class OrientationSpec extends AnyFunSuite {
     }
     val diffs = expected.zipAll(got, null, null).filter { case (a, b) => a != b }
     if (diffs.nonEmpty) fail(s"${diffs.size} of ${expected.size} differ; first ${diffs.take(3).mkString("; ")}")
+    val atBoundaries = boundaries.size + exact.size
     println(
-      s"[orb] angle search: ${got.size} moment pairs (${boundaries.size + exact.size} of them at or beside a boundary, in all 8 octants) equal to the model"
+      s"[orb] angle search: ${got.size} moment pairs ($atBoundaries at or beside a boundary, all 8 octants) == model"
     )
   }
 
