@@ -225,28 +225,39 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
     o
   }
 
-  /** the bin's magnitudes within its quadrant, picked from their parts */
-  case class CosSinPicked() extends Bundle {
+  /** the bin's magnitudes within its quadrant narrowed to two parts' words each (by the part's low bits), and the
+    * part's top bit that picks between them */
+  case class CosSinNarrowed() extends Bundle {
     val item = ReadyCorner()
     val quadrant = UInt(2 bits)
-    val c, s = UInt(magnitudeWidth bits)
+    val cosPair, sinPair = Vec(UInt(magnitudeWidth bits), 2)
+    val upper = Bool()
   }
-  def pickCosSin(l: CosSinLookup): CosSinPicked = {
-    val o = CosSinPicked()
+  require(DescriptorUnit.tableParts >= 2, "the cos/sin parts are picked in two steps: a half, then one of two")
+  def narrowCosSin(l: CosSinLookup): CosSinNarrowed = {
+    val o = CosSinNarrowed()
+    val half = DescriptorUnit.tableParts / 2
+    val low = l.part.resize(log2Up(half))
+    def narrowed(words: Vec[UInt]): Vec[UInt] =
+      Vec((0 until 2).map(u => Vec(words.slice(u * half, u * half + half))(low)))
     o.item := l.item
     o.quadrant := l.quadrant
-    o.c := cosTable.pick(l.cosWords, l.part)
-    o.s := sinTable.pick(l.sinWords, l.part)
+    o.cosPair := narrowed(l.cosWords)
+    o.sinPair := narrowed(l.sinWords)
+    o.upper := l.part.msb
     o
   }
 
-  /** quadrant 0: (c, s), 1: (-s, c), 2: (-c, -s), 3: (s, -c) */
-  def prepare(l: CosSinPicked): PreparedCorner = {
+  /** the part picked, then the quadrant's swap, quadrant 0: (c, s), 1: (-s, c), 2: (-c, -s), 3: (s, -c) (both on
+    * registers: one 4-way choice per bit) */
+  def prepare(l: CosSinNarrowed): PreparedCorner = {
     val o = PreparedCorner()
     val odd = l.quadrant.lsb
+    val c = l.cosPair(U(l.upper))
+    val s = l.sinPair(U(l.upper))
     o.item := l.item
-    o.rotation.cos := Mux(odd, l.s, l.c)
-    o.rotation.sin := Mux(odd, l.c, l.s)
+    o.rotation.cos := Mux(odd, s, c)
+    o.rotation.sin := Mux(odd, c, s)
     o.rotation.cosNegative := l.quadrant === 1 || l.quadrant === 2
     o.rotation.sinNegative := l.quadrant.msb
     o
@@ -263,12 +274,13 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
   val dispatch = new Area {
     // the queue's RAM through its output register and a register behind it, then a register beside the lookups (the
     // RAM lies apart from them; its readiness from two registers: no decision reaches the read pointer), the
-    // lookups, the parts' pick and the quadrant's swap, each step with its valid and ready registered (no chain of
-    // readies from the decision back to the queue): a step passes a corner every other clock, and corners are an
-    // engine's run apart
+    // lookups, the parts narrowed to two, the pick with the quadrant's swap, each step with its valid and ready
+    // registered (no chain of readies from the decision back to the queue): a step passes a corner every other
+    // clock, and corners are an engine's run apart
     val indexedHead = Pipes.halfPipeKeeping(ready.io.pop.map(indexed))(_.within.toSeq)
     val lookedUp = Pipes.halfPipe(indexedHead.map(lookupCosSin), DescriptorUnit.lookupParts)
-    val head = lookedUp.map(pickCosSin).halfPipe().map(prepare).halfPipe()
+    val narrowed = Pipes.halfPipe(lookedUp.map(narrowCosSin), DescriptorUnit.lookupParts)
+    val head = Pipes.halfPipe(narrowed.map(prepare), DescriptorUnit.lookupParts)
     val c = head.payload.item
     // rows since the patch was complete (negative: not yet), for the head of the clock before: it is the head's
     // now unless the head left then or a row started since (the rows and their history then moved on)
@@ -952,8 +964,8 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
       val reads4 = delayed(delayed(read.reads3))
       val reads5 = delayed(reads4)
       val bank4 = RegNext(RegNext(read.bank3))
-      val bank5 = RegNext(bank4)
-      // level 1: within each cluster, by the bank's low bits (beside the banks)
+      // level 1: within each cluster, by the bank's low bits (beside the banks), zero unless the lane reads the
+      // cluster
       def dataOf(l: Int): Vec[UInt] = if (l < lanesPerPort) portA else portBData
       // each cluster picks with its own copy of the lane's bank (kept apart: one register would reach every cluster)
       val level1 = Vec(read.lanes.indices.map { l =>
@@ -961,15 +973,15 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
           val members = (4 * k until (4 * k + 4 min banks)).map(dataOf(l)(_))
           val padded = members ++ Seq.fill(4 - members.size)(U(0, 8 bits))
           val low = keptApart(RegNext(bank4(l).resize(2)))
-          RegNext(Vec(padded)(low))
+          val here = keptApart(RegNext(bank4(l)(bankWidth - 1 downto 2) === k))
+          RegNext(Mux(here, Vec(padded)(low), U(0, 8 bits)))
         })
       })
       val reads6 = delayed(reads5)
-      val bank6 = RegNext(bank5)
-      // level 2: the cluster
+      // level 2: the clusters' bytes ORed (one is the lane's, the others zero): no selection where every cluster's
+      // data meet
       val value = Vec(read.lanes.indices.map { l =>
-        val k = bank6(l)(bankWidth - 1 downto 2).resize(log2Up(clusters max 2))
-        RegNext(level1(l)(k))
+        RegNext(level1(l).reduceBalancedTree(_ | _))
       })
       val reads7 = delayed(reads6)
     }
@@ -1129,7 +1141,8 @@ object DescriptorUnit {
   /** slices of the test pattern's word (whole points each), each looked up and picked by copies of its own */
   val patternSlices: Int = 2
 
-  /** slices of the cos/sin lookup's register, each loaded by its own copy of its "empty" flag */
+  /** slices of each register of the dispatch's cos/sin steps (the lookup, the parts narrowed to two, the pick and
+    * swap), each loaded by its own copy of its "empty" flag */
   val lookupParts: Int = 8
 
   /** copies of the front end's `advance`, each enabling a share of its registers */

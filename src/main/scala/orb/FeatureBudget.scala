@@ -495,11 +495,13 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
   // (the model emits every band whose emission row was processed); then what a fault left in the banks is
   // dropped, and after a good frame the histogram is walked from the top level for the next cut, emptied on the way.
   val frameEnd = new Area {
+    // the detector's frame end through a register first (the detector lies apart from the copies it sets)
+    val arriving = io.frameEnds.stage()
     val pending = Reg(Bool()) init False
     val pendingOk = Reg(Bool()) init False
-    when(io.frameEnds.valid) {
+    when(arriving.valid) {
       pending := True
-      pendingOk := (pending && pendingOk) || io.frameEnds.ok
+      pendingOk := (pending && pendingOk) || arriving.ok
     }
     // nothing in flight: no corner on its way into a list, no band being emitted, no winner's count unwritten
     // (a corner at the input is none of its frame's: it comes at least 22 rows into the next frame); decided a
@@ -515,7 +517,7 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
       val entering = keptApart(RegNext(io.corners.valid) init False)
       val triggered = keptApart(RegNext(emission.triggers) init False)
       val fire = waiting && quiet && !entering && !triggered
-      when(io.frameEnds.valid) { waiting := True }
+      when(arriving.valid) { waiting := True }
       when(fire) { waiting := False }
     }
     val firing = new Firing

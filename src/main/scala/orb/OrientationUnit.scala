@@ -31,11 +31,6 @@ class OrientationUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, c
   val cw = f.coordWidth
   val R = patchRadius
 
-  val queue = StreamFifo(CornerHw(f, h), d.cornerQueueDepth, forFMax = true)
-  queue.io.push.valid := io.corners.valid
-  queue.io.push.payload := io.corners.payload
-  val queueDrop = io.corners.valid && !queue.io.push.ready
-
   // Shared per-column sums around the centre row (column index R = R rows above the newest), for the 10 distinct disc
   // heights dh: T(dh) = sum over |v| <= dh of I(v), TV(dh) = sum over |v| <= dh of v I(v). Both are prefix sums over
   // v of I(v) + I(-v) and v (I(v) - I(-v)), formed in registered levels (`Arith.prefixSums`) and shared by every
@@ -81,6 +76,15 @@ class OrientationUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, c
     val rowStart = RegNext(validAhead && pixelAhead.x === 0 && pixelAhead.active) init False
     val clock = new RowClock(f, rowStart, frameStart)
   }
+
+  // The budget's corners through a register of their own first (the budget lies apart from the queue's pointers):
+  // a corner reaches the queue a clock later, rows before its last column. A frame start flushes it with the queue.
+  val arriving = RegNext(io.corners.valid && !sums.frameStart) init False
+  val arrivingCorner = RegNext(io.corners.payload)
+  val queue = StreamFifo(CornerHw(f, h), d.cornerQueueDepth, forFMax = true)
+  queue.io.push.valid := arriving
+  queue.io.push.payload := arrivingCorner
+  val queueDrop = arriving && !queue.io.push.ready && !sums.frameStart
 
   // The beat one clock after `sums`: the chains add its sums.
   val beat = new Area {
@@ -175,16 +179,13 @@ class OrientationUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, c
   queue.io.flush := sums.frameStart
 
   /** the most corners one clock can drop: the queue, its output register, its buffer and two head registers
-    * flushed, the one pushed then, one more */
-  val dropWidth = log2Up(d.cornerQueueDepth + 5 + 4 + 1)
-  // What a frame start flushes is registered first and counted in the clocks after (see `dropsNow`).
-  val queueFlushed = RegNext(Mux(
-    sums.frameStart,
-    queue.io.occupancy.resize(dropWidth) + U(io.corners.valid).resize(dropWidth) +
-      U(fromRam.valid).resize(dropWidth) + U(!fromRam.ready).resize(dropWidth) +
-      U(popped.valid).resize(dropWidth) + U(head.valid).resize(dropWidth),
-    U(0, dropWidth bits)
-  )) init 0
+    * flushed, the one arriving then and the one in front of the queue, one more */
+  val dropWidth = log2Up(d.cornerQueueDepth + 5 + 4 + 2)
+  // What a frame start flushes is registered first, the queue's occupancy apart from the corners held around it
+  // (no adder behind the occupancy's), and counted in the clocks after (see `dropsNow`).
+  val flushedQueued = RegNext(Mux(sums.frameStart, queue.io.occupancy.resize(dropWidth), U(0, dropWidth bits))) init 0
+  val held = Vec(io.corners.valid, arriving, fromRam.valid, !fromRam.ready, popped.valid, head.valid)
+  val flushedHeld = RegNext(Mux(sums.frameStart, CountOne(held), U(0, log2Up(held.size + 1) bits))) init 0
 
   // The finished corner, a clock after its last column's beat: m10 = sum u I = R sum T - sum j T, formed in the
   // stage after.
@@ -233,7 +234,8 @@ class OrientationUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, c
   // The clock's drops registered where they arise, summed into a register of their own, then counted (the counter
   // lags the drops by three clocks).
   val singleDrops = RegNext(Vec(queueDrop, staleDrop, faultDrop).asBits) init 0
-  val dropsNow = RegNext(CountOne(singleDrops).resize(dropWidth) + queueFlushed) init 0
+  val dropsNow =
+    RegNext(CountOne(singleDrops).resize(dropWidth) + flushedHeld.resize(dropWidth) + flushedQueued) init 0
   val drops = Reg(f.counter()) init 0
   drops := drops + dropsNow.resize(f.counterWidth)
   io.dropped := drops
