@@ -499,11 +499,15 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
       * them all; made with the issue stage (`issue.advanceCopies`) */
     private val enableRequests = scala.collection.mutable.ArrayBuffer[(Bool, Int)]()
 
+    /** enables of registers that lie apart from the others made before and after them (beside the multipliers
+      * of every point, or the dispatch's): each gets a copy of `advance` of its own (`issue.advanceCopy`) */
+    private val ownEnables = scala.collection.mutable.ArrayBuffer[Bool]()
+
     /** an enable for `bits` more of the front end's registers: a copy of `advance` chosen once the front end is
-      * built (`shareEnables`) */
-    private def enable(bits: Int): Bool = {
+      * built (`shareEnables`), or one of its own */
+    private def enable(bits: Int, own: Boolean = false): Bool = {
       val e = Bool()
-      enableRequests += e -> bits
+      if (own) ownEnables += e else enableRequests += e -> bits
       e
     }
 
@@ -525,8 +529,14 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
         load += bits
         left -= bits
       }
+      for ((e, i) <- ownEnables.zipWithIndex) {
+        e := issue.advanceCopy(i % (DescriptorUnit.advanceCopies / DescriptorUnit.advanceCopiesPerAbandon))
+      }
     }
     def step[T <: Data](v: T): T = RegNextWhen(v, enable(widthOf(v)))
+
+    /** `step` enabled by a copy of `advance` of its own */
+    def stepApart[T <: Data](v: T): T = RegNextWhen(v, enable(widthOf(v), own = true))
 
     /** Whether a front-end stage holds a group, and of which slot. */
     case class Token() extends Bundle {
@@ -632,12 +642,12 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
           def countCopy(): UInt = keptApart(fetch.counter()).resize(log2Up(groups))
           val indexCopies = (0 until DescriptorUnit.tableParts).map(_ => countCopy())
           val words = Vec(table.wordsEach(indexCopies).map(step(_)))
-          val part = keptApart(step(table.part(countCopy())))
+          val part = keptApart(stepApart(table.part(countCopy())))
         }
       }
       // Cat of a sequence puts its first element in the low bits: slice 0 there, as in the table's words
-      val picked = step(Cat(slices.map(sl => sl.table.pick(sl.words, sl.part))))
-      val bits = step(picked)
+      val picked = stepApart(Cat(slices.map(sl => sl.table.pick(sl.words, sl.part))))
+      val bits = stepApart(picked)
       private def field(k: Int): Bits = bits(k * (patternWidth + 1), patternWidth + 1 bits)
 
       /** point i: |x|, x < 0, |y|, y < 0 */
@@ -654,7 +664,7 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
       /** loaded as a corner starts (`begin`, with the fetch's tag): the front end fetches one corner's groups at a
         * time, so its rotation needs no register in every slot and no choice by the tag */
       val fetched = Reg(Rotation())
-      val first = step(fetched)
+      val first = stepApart(fetched)
       // a copy per point (kept apart), each feeding only its point's four multipliers
       val copies = (0 until pointsPerGroup).map { _ =>
         keptApart(step(first))
@@ -855,11 +865,15 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
         token.valid := False
         advance := True
       }
-      // the copies of `advance`, a few at a time from their own copies of the slots' abandonment
-      val advanceCopies = (0 until DescriptorUnit.advanceCopies).map { i =>
-        val j = i / DescriptorUnit.advanceCopiesPerAbandon
+
+      /** a copy of `advance` (kept apart) served by copy `j` of the slots' abandonment */
+      def advanceCopy(j: Int): Bool = {
         val abandonsHere = Mux(loaded.tag, slots(1).abandonCopies(j), slots(0).abandonCopies(j))
         keptApart(RegNext(abandonsHere || continues) init True)
+      }
+      // the copies of `advance`, a few at a time from their own copies of the slots' abandonment
+      val advanceCopies = (0 until DescriptorUnit.advanceCopies).map { i =>
+        advanceCopy(i / DescriptorUnit.advanceCopiesPerAbandon)
       }
       val now = (0 until pointsPerGroup).map(i => plan.issue(i) === clock)
       // which point each lane reads now, registered with the points (the lanes' choice comes from registers)

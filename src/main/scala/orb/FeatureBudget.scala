@@ -228,15 +228,29 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
         /** `emptying` while the last place is empty, decided a clock ahead into registers from both registers'
           * next values (no path from the list's last place or the emission to every place's enable), one copy per
           * place and part of the entry (kept apart), as `writes` */
-        val advancesNext = emptying.getAheadValue() && !list(k - 1).valid.getAheadValue()
         val advances = (0 until k).map { _ =>
           Seq.fill(FeatureBudget.entryParts) {
-            keptApart(RegNext(advancesNext) init False)
+            keptApart(Reg(Bool()) init False)
           }
         }
         // a list being emptied moves an empty entry into place 0
         val fresh = Entry()
         fresh.valid := !emptying
+
+        /** the emission takes the winner from this list's last place in this clock (set by the emission) */
+        val leaves = Bool()
+
+        /** the last place's next value while the list empties: it changes only by a move or a winner leaving. No
+          * corner enters a list that empties (the band two later, which shares its bank, gets its first corner
+          * after the emission: `OrbConfig.budgetService`) and the frame's end does not fire then (it waits until
+          * the emission has ended), so neither is in it. */
+        val lastValidNext = !leaves && Mux(
+          advances(k - 1)(FeatureBudget.restPart),
+          if (k == 1) fresh.valid else list(k - 2).valid,
+          list(k - 1).valid
+        )
+        val advancesNext = emptying.getAheadValue() && !lastValidNext
+        advances.foreach(_.foreach(_ := advancesNext))
         fresh.xOffset := compared.corners(bank).x.resize(b.cellShift)
         fresh.yOffset := compared.corners(bank).y.resize(b.bandShift)
         fresh.score := compared.corners(bank).score
@@ -416,6 +430,9 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
       pace := Mux(pace === FeatureBudget.winnerClocks - 1, U(0, pace.getWidth bits), pace + 1)
     }
     when(trigger || choosing) { pace := 0 }
+    for (((bk, cell), l) <- intake.lists.zipWithIndex) {
+      intake.perList(l).leaves := now && first.valid && bank === bk && first.cell(cell)
+    }
     when(now) {
       when(first.valid) {
         for (bk <- 0 until 2; cell <- 0 until cells) {

@@ -126,16 +126,19 @@ class HarrisDetector(f: FrameConfig, h: HarrisConfig, columnRows: Int, stages: H
     // a bias (the rounding's half) joins the outer pair, whose weight is 1: no adder more in the last step; the
     // three terms through a carry-save step into one adder
     val outer = carrySaveSumSigned(Seq(values(0), values(6)) ++ bias.toSeq, width)
+    // the middle three too (e = c + d), so that each half below is three terms: one carry-save step
+    val middle = carrySaveSumSigned(Seq(values(2), values(3), values(4)), width)
     val pairs = pre.insert(Vec(outer +: Seq((1, 5), (2, 4)).map { case (i, j) =>
       values(i).resize(width) + values(j).resize(width)
     } :+
-      values(3).resize(width)))
+      values(3).resize(width) :+
+      middle))
     val m = mid.getOrElse(sum)
-    val Seq(a, b, c, d) = m(pairs).toSeq
-    // a + 6b and 15c + 20d = 16c + ~c + 1 + 16d + 4d, each through carry-save steps into one adder
+    val Seq(a, b, c, d, e) = m(pairs).toSeq
+    // a + 6b and 15c + 20d = 16e + 4d + ~c + 1, each through one carry-save step into one adder
     val halves = m.insert(Vec(
       carrySaveSumSigned(Seq(a, b |<< 2, b |<< 1), width),
-      carrySaveSumSigned(Seq(c |<< 4, ~c, d |<< 4, d |<< 2), width, plusOne = true)
+      carrySaveSumSigned(Seq(e |<< 4, d |<< 2, ~c), width, plusOne = true)
     ))
     sum(halves)(0) + sum(halves)(1)
   }

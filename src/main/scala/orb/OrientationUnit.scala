@@ -30,6 +30,7 @@ class OrientationUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, c
   }
   val cw = f.coordWidth
   val R = patchRadius
+  require(isPow2(R + 1), "m10 = R sum T - sum j T is formed with R t = 2^s t - t")
 
   // Shared per-column sums around the centre row (column index R = R rows above the newest), for the 10 distinct disc
   // heights dh: T(dh) = sum over |v| <= dh of I(v), TV(dh) = sum over |v| <= dh of v I(v). Both are prefix sums over
@@ -160,11 +161,14 @@ class OrientationUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, c
   val ahead = new Area {
     val x = sums.pixelAhead.x
     val y = sums.pixelAhead.y
-    val at = RegNext(y === head.lastY && x === head.lastX) init False
+    // the position as one number, row above column (x < 2^cw): "reached" is one comparison, one carry chain
+    val position = y @@ x
+    val last = head.lastY @@ head.lastX
+    val at = RegNext(position === last) init False
 
     /** the head is the one the comparisons were made with, and the stream has reached its last column (or gone
       * past it): the pop needs no comparison of its own, so the queue's enables follow two registers */
-    val reached = y > head.lastY || (y === head.lastY && x >= head.lastX)
+    val reached = position >= last
     val due = RegNext(head.valid && !head.ready && reached) init False
   }
   // When `sums` shows the head's last column: the chains add it a clock later (at the beat) and hold the head's
@@ -224,7 +228,12 @@ class OrientationUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, c
   val moments = finishing.stage().map { p =>
     val o = OrientedCorner(f, h, d)
     o := p.oriented
-    o.m10.allowOverride() := constMulSigned(p.t.resize(momentWidth).asSInt, R, momentWidth) - p.ts.resize(momentWidth).asSInt
+    // R t - ts = 2^s t - t - ts (R + 1 = 2^s) = (2^s t + 1) + ~t + ~ts + 1: one carry-save step into one adder
+    // (2^s t has its low bit free for the first one, the carry word for the second)
+    val t = p.t.resize(momentWidth).asSInt
+    val ts = p.ts.resize(momentWidth).asSInt
+    o.m10.allowOverride() :=
+      carrySaveSumSigned(Seq((t |<< log2Up(R + 1)) | S(1, momentWidth bits), ~t, ~ts), momentWidth, plusOne = true)
     o
   }
   val bins = new AngleSearch(f, h, d)

@@ -7,8 +7,9 @@ import spinal.lib._
   * register are always enabled, reading the head at the read pointer every clock, so no enable pin waits for the
   * consumer's readiness (a `StreamFifo` enables its read from the pop's handshake). The head is offered once the
   * pointer has stood still for three clocks with the head written: a pop every fourth clock at most, three clocks of
-  * latency more than a register. Full and empty are registers (from the count's next value), so the write pointer,
-  * whose next value synthesis may take into the RAM's own address register, waits for no comparison of pointers. */
+  * latency more than a register. Full and empty are registers, each set from one comparison of the count register
+  * and the push and pop; the write goes to the RAM a clock after the push, from registers (address, data, enable),
+  * so no logic lies before the RAM's write pins (synthesis takes the registers into the RAM's own). */
 class SettledFifo[T <: Data](payloadType: HardType[T], depth: Int) extends Component {
   require(depth >= 2)
   val io = new Bundle {
@@ -27,17 +28,34 @@ class SettledFifo[T <: Data](payloadType: HardType[T], depth: Int) extends Compo
   io.push.ready := !full
   val pushed = io.push.fire
   val popped = io.pop.fire
-  ram.write(writeAt, io.push.payload, enable = pushed)
+  // the write a clock later, from registers
+  val writing = RegNext(pushed) init False
+  val writingAt = RegNext(writeAt)
+  val writingData = RegNext(io.push.payload)
+  ram.write(writingAt, writingData, enable = writing)
   when(pushed) {
     writeAt := after(writeAt)
   }
   when(popped) {
     readAt := after(readAt)
   }
-  val countNext = count + U(pushed).resize(count.getWidth) - U(popped).resize(count.getWidth)
-  count := countNext
-  full := countNext === depth
-  empty := countNext === 0
+  // the count moves by one at most; full and empty change only where it moves onto or off its ends
+  val up = pushed && !popped
+  val down = popped && !pushed
+  when(up) {
+    count := count + 1
+  }
+  when(down) {
+    count := count - 1
+  }
+  when(up) {
+    full := count === depth - 1
+    empty := False
+  }
+  when(down) {
+    full := False
+    empty := count === 1
+  }
 
   // the read address a plain copy of the pointer (the RAM's address register: no logic between the pointer's
   // register and the RAM), the RAM's output register and a plain register behind it (the block's output register),
@@ -45,7 +63,8 @@ class SettledFifo[T <: Data](payloadType: HardType[T], depth: Int) extends Compo
   val address = RegNext(readAt)
   val head = RegNext(ram.readSync(address))
 
-  /** the pointer held the head (not empty, no pop) for the address, the read and the output register */
+  /** the pointer held the head (not empty, no pop) for the address, the read and the output register; a head pushed
+    * into an empty queue is written a clock after the push, when `empty` falls, and read from the clock after */
   val settled = (0 until 3).foldLeft(!empty && !popped)((held, _) => RegNext(held && !popped) init False)
   io.pop.valid := settled
   io.pop.payload := head
