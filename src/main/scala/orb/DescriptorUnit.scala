@@ -186,8 +186,8 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
   val queueDrop = io.corners.valid && !ready.io.push.ready
 
   /** cos and sin of a bin from a quarter of the table (`OrbDescriptorConfig.cosSin`): the magnitudes of the bin
-    * within its quadrant (sin read from the table backwards: no subtraction), in two registered steps (the table's
-    * parts, then the part), then swapped and signed by the quadrant. */
+    * within its quadrant (sin read from the table backwards: no subtraction), in three registered steps (each
+    * part's word at the bin, the two words of the part's half, the part with the quadrant's swap and signs). */
   val quarterIndexWidth = log2Up(d.binsPerQuadrant)
   val cosTable =
     Arith.SplitTable(d.quarterCos.take(d.binsPerQuadrant).map(BigInt(_)), magnitudeWidth, DescriptorUnit.tableParts)
@@ -233,7 +233,7 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
     val cosPair, sinPair = Vec(UInt(magnitudeWidth bits), 2)
     val upper = Bool()
   }
-  require(DescriptorUnit.tableParts >= 2, "the cos/sin parts are picked in two steps: a half, then one of two")
+  require(DescriptorUnit.tableParts >= 2, "the cos/sin part is picked in two steps: within each half, then the half")
   def narrowCosSin(l: CosSinLookup): CosSinNarrowed = {
     val o = CosSinNarrowed()
     val half = DescriptorUnit.tableParts / 2

@@ -225,9 +225,10 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
           * place that leaves first is empty */
         val emptying = keptApart(Reg(Bool()) init False)
 
-        /** `emptying` while the last place is empty, decided a clock ahead into registers from both registers'
-          * next values (no path from the list's last place or the emission to every place's enable), one copy per
-          * place and part of the entry (kept apart), as `writes` */
+        /** `emptying` while the last place is empty, decided a clock ahead into registers from the next value of
+          * `emptying` and of the last place as it empties (`lastValidNext`): no path from the list's last place or
+          * the emission to every place's enable; one copy per place and part of the entry (kept apart), as
+          * `writes` */
         val advances = (0 until k).map { _ =>
           Seq.fill(FeatureBudget.entryParts) {
             keptApart(Reg(Bool()) init False)
@@ -240,10 +241,12 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
         /** the emission takes the winner from this list's last place in this clock (set by the emission) */
         val leaves = Bool()
 
-        /** the last place's next value while the list empties: it changes only by a move or a winner leaving. No
-          * corner enters a list that empties (the band two later, which shares its bank, gets its first corner
-          * after the emission: `OrbConfig.budgetService`) and the frame's end does not fire then (it waits until
-          * the emission has ended), so neither is in it. */
+        /** the last place's next value while the list empties (or starts to, in the trigger's clock): it changes
+          * only by a move or a winner leaving. No corner enters it then: the band's own corners are in their lists
+          * before its trigger (`BudgetConfig.emitRowOffset` covers the detector's latency, as the emission itself
+          * needs), and the band two later, which shares the bank, gets its first corner after the emission
+          * (`OrbConfig.budgetService`); nor does the frame's end fire (it waits until the emission has ended). So
+          * neither is in it. */
         val lastValidNext = !leaves && Mux(
           advances(k - 1)(FeatureBudget.restPart),
           if (k == 1) fresh.valid else list(k - 2).valid,
@@ -513,12 +516,12 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
   // dropped, and after a good frame the histogram is walked from the top level for the next cut, emptied on the way.
   val frameEnd = new Area {
     // the detector's frame end through a register first (the detector lies apart from the copies it sets)
-    val arriving = io.frameEnds.stage()
+    val ended = io.frameEnds.stage()
     val pending = Reg(Bool()) init False
     val pendingOk = Reg(Bool()) init False
-    when(arriving.valid) {
+    when(ended.valid) {
       pending := True
-      pendingOk := (pending && pendingOk) || arriving.ok
+      pendingOk := (pending && pendingOk) || ended.ok
     }
     // nothing in flight: no corner on its way into a list, no band being emitted, no winner's count unwritten
     // (a corner at the input is none of its frame's: it comes at least 22 rows into the next frame); decided a
@@ -534,7 +537,7 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
       val entering = keptApart(RegNext(io.corners.valid) init False)
       val triggered = keptApart(RegNext(emission.triggers) init False)
       val fire = waiting && quiet && !entering && !triggered
-      when(arriving.valid) { waiting := True }
+      when(ended.valid) { waiting := True }
       when(fire) { waiting := False }
     }
     val firing = new Firing
