@@ -120,6 +120,15 @@ object Arith {
       if (index.getWidth <= low) U(0, log2Up(parts) bits) else index(index.high downto low).resize(log2Up(parts))
     }
     def pick(words: Vec[UInt], part: UInt): UInt = words(part)
+
+    /** `pick` in two steps, for a register between them: each half of the parts narrowed to its word by the part's
+      * low bits (`halves`), then the half by the part's top bit (`pickHalf`, `part.msb`) */
+    def halves(words: Vec[UInt], part: UInt): Vec[UInt] = {
+      require(parts >= 2, "a table in one part has no halves")
+      val half = parts / 2
+      Vec((0 until 2).map(u => Vec(words.slice(u * half, u * half + half))(part.resize(log2Up(half)))))
+    }
+    def pickHalf(halves: Vec[UInt], upper: Bool): UInt = halves(U(upper))
   }
 
   /** The last `n` values of `v` (element 0 = `v` itself), advancing only on valid pixels: the horizontal extent of

@@ -225,25 +225,20 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
     o
   }
 
-  /** the bin's magnitudes within its quadrant narrowed to two parts' words each (by the part's low bits), and the
-    * part's top bit that picks between them */
+  /** the bin's magnitudes within its quadrant, each half of the parts narrowed to its word (`SplitTable.halves`),
+    * and the part's top bit, which picks the half */
   case class CosSinNarrowed() extends Bundle {
     val item = ReadyCorner()
     val quadrant = UInt(2 bits)
     val cosPair, sinPair = Vec(UInt(magnitudeWidth bits), 2)
     val upper = Bool()
   }
-  require(DescriptorUnit.tableParts >= 2, "the cos/sin part is picked in two steps: within each half, then the half")
   def narrowCosSin(l: CosSinLookup): CosSinNarrowed = {
     val o = CosSinNarrowed()
-    val half = DescriptorUnit.tableParts / 2
-    val low = l.part.resize(log2Up(half))
-    def narrowed(words: Vec[UInt]): Vec[UInt] =
-      Vec((0 until 2).map(u => Vec(words.slice(u * half, u * half + half))(low)))
     o.item := l.item
     o.quadrant := l.quadrant
-    o.cosPair := narrowed(l.cosWords)
-    o.sinPair := narrowed(l.sinWords)
+    o.cosPair := cosTable.halves(l.cosWords, l.part)
+    o.sinPair := sinTable.halves(l.sinWords, l.part)
     o.upper := l.part.msb
     o
   }
@@ -253,8 +248,8 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
   def prepare(l: CosSinNarrowed): PreparedCorner = {
     val o = PreparedCorner()
     val odd = l.quadrant.lsb
-    val c = l.cosPair(U(l.upper))
-    val s = l.sinPair(U(l.upper))
+    val c = cosTable.pickHalf(l.cosPair, l.upper)
+    val s = sinTable.pickHalf(l.sinPair, l.upper)
     o.item := l.item
     o.rotation.cos := Mux(odd, s, c)
     o.rotation.sin := Mux(odd, c, s)

@@ -44,15 +44,11 @@ class SettledFifo[T <: Data](payloadType: HardType[T], depth: Int) extends Compo
   val down = popped && !pushed
   when(up) {
     count := count + 1
-  }
-  when(down) {
-    count := count - 1
-  }
-  when(up) {
     full := count === depth - 1
     empty := False
   }
   when(down) {
+    count := count - 1
     full := False
     empty := count === 1
   }
