@@ -135,21 +135,27 @@ object Arith {
     * a window, whatever the blanking. */
   def lastValid[T <: Data](v: T, n: Int, valid: Bool): Vec[T] = History[T](v, n, valid, null.asInstanceOf[T])
 
-  /** `a > b` (`a >= b` if `orEqual`) in two halves side by side, for a register between them and their combination
-    * (`combineHalves`): no carry through the whole width in one clock. Bit 0: the high halves' `>`, bit 1: their
-    * `===`, bit 2: the low halves' comparison. */
-  def comparedInHalves(a: UInt, b: UInt, orEqual: Boolean): Bits = {
+  /** `a > b` (`a >= b` if `orEqual`) in `parts` parts side by side, for a register between
+    * them and their combination (`combineParts`): no carry through the whole width in one clock. From bit 0 up:
+    * each part's `>` and `===` from the highest part down, then the lowest part's comparison. */
+  def comparedInParts(a: UInt, b: UInt, orEqual: Boolean, parts: Int): Bits = {
     val width = a.getWidth max b.getWidth
-    val cut = width / 2
+    require(parts >= 1 && parts <= width, s"$parts parts of $width bits")
     val (aw, bw) = (a.resize(width), b.resize(width))
-    val (aHi, bHi) = (aw(width - 1 downto cut), bw(width - 1 downto cut))
-    val (aLo, bLo) = (aw(cut - 1 downto 0), bw(cut - 1 downto 0))
-    val low = if (orEqual) aLo >= bLo else aLo > bLo
-    Cat(low, aHi === bHi, aHi > bHi)
+    // part k holds bits cuts(k) until cuts(k + 1), part 0 the lowest
+    val cuts = (0 to parts).map(k => width * k / parts)
+    def part(v: UInt, k: Int): UInt = v(cuts(k + 1) - 1 downto cuts(k))
+    val low = if (orEqual) part(aw, 0) >= part(bw, 0) else part(aw, 0) > part(bw, 0)
+    val upper = (parts - 1 to 1 by -1).flatMap(k => Seq(part(aw, k) > part(bw, k), part(aw, k) === part(bw, k)))
+    // Cat of a sequence puts its first element in the low bits
+    Cat(upper :+ low)
   }
 
-  /** the comparison of `comparedInHalves` from its halves */
-  def combineHalves(h: Bits): Bool = h(0) || (h(1) && h(2))
+  /** the comparison of `comparedInParts` from its parts */
+  def combineParts(h: Bits): Bool = {
+    val upper = (h.getWidth - 1) / 2
+    (0 until upper).foldRight(h.msb)((k, lower) => h(2 * k) || (h(2 * k + 1) && lower))
+  }
 
   /** Arithmetic shift right (floor), written as a slice so that the Verilog has no width-changing shift. */
   def floorShift(v: SInt, n: Int): SInt = if (n == 0) v else v(v.high downto n)

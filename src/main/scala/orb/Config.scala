@@ -432,9 +432,9 @@ object MatcherConfig {
     * comparisons, the rescan and the sweep that read it lie apart from the RAM) */
   val crossLatency: Int = readLatency + 1
 
-  /** clocks from the sweep's read of an entry to its correspondence's push into the output FIFO (the entry picked
-    * from its lane into a register, then the push's register) */
-  val pushLatency: Int = crossLatency + 2
+  /** clocks from the sweep's read of an entry to its correspondence's push into the output FIFO (the entry zeroed
+    * unless read into a register of its lane, the lanes ORed into a register, then the push's register) */
+  val pushLatency: Int = crossLatency + 3
 
   /** Parts of the input register's payload (a feature), each loaded by its own copy of the register's empty flag. */
   val itemParts: Int = 8

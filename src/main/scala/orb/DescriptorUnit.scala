@@ -554,41 +554,22 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
 
       /** the slot of the corner fetched last */
       val tag = RegInit(True)
-      private val copies = scala.collection.mutable.ArrayBuffer[UInt]()
-      private var restarted = false
-      private def newCount(): UInt = Reg(UInt(log2Up(groups + 1) bits)) init groups
-      val group = newCount()
+
+      /** the group fetched now: the one count of the front end (its stages take it from here, a stage a clock) */
+      val group = Reg(UInt(log2Up(groups + 1) bits)) init groups
       val valid = group < groups
-      // each copy tests its own value (the copies are equal): no one count's test reaches every copy
-      private def counting(g: UInt): UInt = {
-        val fetching = g < groups
-        when(enable(widthOf(g)) && fetching) {
-          g := g + 1
-        }
-        // the slot's abandonment from copies of its own (the counts lie apart from the slots)
-        when(fetching && Mux(tag, slots(1).abandonCopy(), slots(0).abandonCopy())) {
-          g := groups
-        }
-        copies += g
-        g
+      when(enable(widthOf(group)) && valid) {
+        group := group + 1
       }
-      counting(group)
-
-      /** a copy of `group` kept apart, its next value formed beside it: no one next-value logic drives every copy
-        * across the chip */
-      def counter(): UInt = {
-        require(!restarted, "a count made after `restartOn` would never restart")
-        counting(newCount())
+      when(valid && Mux(tag, slots(1).abandonCopy(), slots(0).abandonCopy())) {
+        group := groups
       }
 
-      /** a corner starts (`starts`, a clock ahead): every count from its first group, each by a copy of the start
-        * of its own (kept apart), so that no one start register drives every count across the front end */
+      /** a corner starts (`starts`, a clock ahead): the count from its first group, by a copy of the start of its
+        * own (kept apart) */
       def restartOn(starts: Bool): Unit = {
-        restarted = true
-        for (g <- copies) {
-          when(keptApart(RegNext(starts) init False)) {
-            g := 0
-          }
+        when(keptApart(RegNext(starts) init False)) {
+          group := 0
         }
       }
       val token = Token()
@@ -622,9 +603,10 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
       }
       // the table in slices of its points, each read in parts: each part's word registered beside it, then the
       // part picked into a register, then a copy of the whole word that feeds only the multipliers (their input
-      // registers, across the chip); every slice with its own copies of the group count (kept apart), one per part
-      // and one for the pick: no one count drives a whole word's lookups or picks
-      val token = stepToken(stepToken(stepToken(fetch.token)))
+      // registers, across the chip); every slice with its own copies of the group (kept apart, a stage behind the
+      // count: no restart or abandonment reaches them), one per part and one for the pick: no one register drives
+      // a whole word's lookups or picks
+      val token = stepToken(stepToken(stepToken(stepToken(fetch.token))))
       val sliceWidth = pointsPerGroup / DescriptorUnit.patternSlices * 2 * fieldWidth
       require(pointsPerGroup % DescriptorUnit.patternSlices == 0, "a slice holds whole points")
       val slices = (0 until DescriptorUnit.patternSlices).map { sl =>
@@ -634,7 +616,7 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
             sliceWidth,
             DescriptorUnit.tableParts
           )
-          def countCopy(): UInt = keptApart(fetch.counter()).resize(log2Up(groups))
+          def countCopy(): UInt = keptApart(step(fetch.group.resize(log2Up(groups))))
           val indexCopies = (0 until DescriptorUnit.tableParts).map(_ => countCopy())
           val words = Vec(table.wordsEach(indexCopies).map(step(_)))
           val part = keptApart(stepApart(table.part(countCopy())))
@@ -659,7 +641,8 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
       /** loaded as a corner starts (`begin`, with the fetch's tag): the front end fetches one corner's groups at a
         * time, so its rotation needs no register in every slot and no choice by the tag */
       val fetched = Reg(Rotation())
-      val first = stepApart(fetched)
+      // two steps before the copies: the pattern's lookups are a stage behind the count
+      val first = stepApart(stepApart(fetched))
       // a copy per point (kept apart), each feeding only its point's four multipliers
       val copies = (0 until pointsPerGroup).map { _ =>
         keptApart(step(first))
@@ -1128,8 +1111,8 @@ object DescriptorUnit {
   val dispatchClocks: Int = 5
 
   /** Clocks from a corner's start to its first read issue when no earlier group is ahead of it in the front end:
-    * the fetch and the front end's 14 registered stages. */
-  val frontLatency: Int = 15
+    * the fetch and the front end's 15 registered stages. */
+  val frontLatency: Int = 16
 
   /** Clocks from a corner's last read issue to its finished descriptor: the reads, the comparison and the
     * collection. */

@@ -27,6 +27,7 @@ case class HarrisStages(
     kTrace: Int = 16,
     response: Int = 17,
     suppressRead: Int = 18,
+    suppressParts: Int = 3,
     segmentCompare: Int = 1,
     segmentArc: Int = 2
 ) {
@@ -50,18 +51,21 @@ case class HarrisStages(
     order.head >= 0 && order.zip(order.tail).forall { case (a, b) => b > a },
     "each step needs the previous one's registered result: node indices must strictly increase"
   )
+  require(suppressParts >= 1, "the suppression compares scores in one part or more")
   require(
     segmentCompare >= 0 && segmentArc > segmentCompare && segmentArc <= response,
     "the segment test compares, then combines arcs a node later, at the latest where the score is formed"
   )
 
   /** the window column arrives `RowWindow.latency` nodes after it is read (through the RAM's output register) and is
-    * registered once more before it is compared; the comparisons' halves are combined a node later, and the corner
-    * leaves one node after that */
+    * registered once more before it is compared (in `suppressParts` parts side by side); each comparison's parts are
+    * combined a node later, the comparisons and the position's tests a node after that, and the corner leaves one
+    * node later still */
   def window: Int = suppressRead + RowWindow.latency
   def suppress: Int = window + 1
   def combine: Int = suppress + 1
-  def output: Int = combine + 1
+  def decide: Int = combine + 1
+  def output: Int = decide + 1
 
   /** clocks from a column at the input to the corner it completes at the output */
   def latency: Int = output
@@ -305,23 +309,31 @@ class HarrisDetector(f: FrameConfig, h: HarrisConfig, columnRows: Int, stages: H
     val p = n(PIXEL)
     // The geometry registers only change at a start of frame that follows a good frame of the same geometry,
     // so beats still in flight from the previous frame see the right values.
-    // (v - reach) in [border, size - 1 - border], without unsigned wrap-around for small frames.
-    def inside(v: UInt, size: UInt) = v >= h.border + reach && (v +^ h.border) < (size +^ reach)
-    // compared a stage ahead, from the same beat's position
+    // (v - reach) in [border, size - 1 - border], without unsigned wrap-around for small frames: v >= border + reach
+    // and v < size + reach - border, each one comparison of the beat's position with a constant or a register
+    // (the size's bound registered beside them), tested a stage ahead from the same beat's position
     val w = at(stages.window)
-    val INSIDE_X = w.insert(inside(w(PIXEL).x, geometry.width))
-    val INSIDE_Y = w.insert(inside(w(PIXEL).y, geometry.height))
-    // The comparisons with the centre in two halves side by side, registered, combined a node later, and the tests
-    // combined into the corner's flag.
-    def halves(a: UInt, b: UInt, orEqual: Boolean): Bits = Arith.comparedInHalves(a, b, orEqual)
-    val FLAGS = n.insert(Vec(p.active, n(INSIDE_X), n(INSIDE_Y)))
+    def below(size: UInt): UInt = {
+      val end = size +^ reach
+      RegNext(Mux(end < h.border, U(0, widthOf(end) bits), end - h.border))
+    }
+    def inside(v: UInt, size: UInt): Seq[Bool] = Seq(v >= h.border + reach, v < below(size))
+    val INSIDE = w.insert(Vec(inside(w(PIXEL).x, geometry.width) ++ inside(w(PIXEL).y, geometry.height)))
+    // The comparisons with the centre in parts side by side, registered; each combined a node later, then the
+    // tests combined into the corner's flag. The threshold's bits above a score's decide alone (a register).
+    def parts(a: UInt, b: UInt, orEqual: Boolean): Bits = Arith.comparedInParts(a, b, orEqual, stages.suppressParts)
+    val t = control.threshold
+    val unreachable = RegNext(if (h.scoreWidth < widthOf(t)) t(t.high downto h.scoreWidth).orR else False) init False
+    val FLAGS = n.insert(Vec(Seq(p.active, !unreachable) ++ n(INSIDE)))
     val COMPARED = n.insert(
-      Vec(Seq(halves(centre, control.threshold, orEqual = false)) ++ earlier.map(halves(centre, _, orEqual = false)) ++
-        later.map(halves(centre, _, orEqual = true)))
+      Vec(Seq(parts(centre, control.threshold.resize(h.scoreWidth), orEqual = false)) ++
+        earlier.map(parts(centre, _, orEqual = false)) ++ later.map(parts(centre, _, orEqual = true)))
     )
     val CENTRE = n.insert(centre)
     val c = at(stages.combine)
-    val TESTS = c.insert(c(FLAGS).asBits.andR && c(COMPARED).map(Arith.combineHalves).reduce(_ && _))
+    val HOLDS = c.insert(Vec(c(FLAGS).asBits.andR +: c(COMPARED).map(Arith.combineParts)))
+    val d = at(stages.decide)
+    val TESTS = d.insert(d(HOLDS).asBits.andR)
     // the corner's position, the centre's, registered with the tests
     val CX = n.insert(p.x - reach)
     val CY = n.insert(p.y - reach)

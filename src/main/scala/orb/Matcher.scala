@@ -57,7 +57,6 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
   /** entry index -> group (the RAM address of its lane), as a slice: plain Verilog without width warnings */
   def groupOf(index: UInt, width: Int): UInt = (if (P == 1) index else index(index.high downto log2Up(P))).resize(width)
   def laneIs(lane: UInt, l: Int): Bool = if (P == 1) True else lane === l
-  def pick[T <: Data](v: Seq[T], lane: UInt): T = if (P == 1) v.head else Vec(v)(lane.resize(log2Up(P)))
   require(
     h.scoreWidth <= distanceWidth + 1 + 2 * cw,
     "a score must fit the cross word it borrows while a keyframe loads"
@@ -336,7 +335,7 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
     val values = scores.map(s => Delay(s, 3))
     def below(i: Int, j: Int): Bool = {
       require(j < i)
-      RegNext(Arith.combineHalves(RegNext(Arith.comparedInHalves(scores(j), scores(i), orEqual = false))))
+      RegNext(Arith.combineParts(RegNext(Arith.comparedInParts(scores(j), scores(i), orEqual = false, 2))))
     }
     val belowEarlier = (0 until P).map(i => (0 until i).map(j => below(i, j)))
     val picks = RegNext(Vec((0 until P).map { i =>
@@ -571,23 +570,27 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
     markValue.liveY := scan.live.y
   }
 
-  // Sweep results, `crossLatency` clocks after the read.
+  // Sweep results: each lane's cross word and position, zero unless the sweep read that lane, registered in the
+  // lane `crossLatency` clocks after the read (a lane flag delayed beside the read: no lane number reaches the
+  // lanes' data), then ORed into the correspondence's registers (the lanes lie apart: no selection where they meet).
   val swept = new Area {
-    val valid = Delay(sweep.reading, crossLatency, init = False)
-    val lane = Delay(sweep.lane, crossLatency)
     val addr = Delay(sweep.addr, crossLatency)
-    val cross = pick(reads.map(_.cross), lane)
-    val entryX = pick(reads.map(_.keyX), lane)
-    val entryY = pick(reads.map(_.keyY), lane)
-    val emit = valid && cross.mutual && frame.params.crossCheck
-    // the correspondence of an emitted entry, picked from its lane into registers (the lanes lie apart)
-    private val emitNow = emit
+    val lanes =
+      for ((r, l) <- reads.zipWithIndex) yield new Area {
+        val here = Delay(sweep.reading && laneIs(sweep.lane, l), crossLatency, init = False)
+        val emit = RegNext(here && r.cross.mutual && frame.params.crossCheck) init False
+        val cross = RegNext(Mux(here, r.cross, r.cross.getZero))
+        val keyX = RegNext(Mux(here, r.keyX, U(0, cw bits)))
+        val keyY = RegNext(Mux(here, r.keyY, U(0, cw bits)))
+      }
+    val cross = Cross()
+    cross.assignFromBits(lanes.map(_.cross.asBits).reduce(_ | _))
     val out = new Area {
-      val emit = RegNext(emitNow) init False
+      val emit = RegNext(lanes.map(_.emit).orR) init False
       val liveX = RegNext(cross.liveX)
       val liveY = RegNext(cross.liveY)
-      val keyX = RegNext(entryX)
-      val keyY = RegNext(entryY)
+      val keyX = RegNext(lanes.map(_.keyX).reduce(_ | _))
+      val keyY = RegNext(lanes.map(_.keyY).reduce(_ | _))
       val distance = RegNext(cross.distance)
     }
   }
@@ -611,7 +614,7 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
     val c = compare.results(l)
     val markHere = decide.markLanes(l)
     // the lane a clear is for, decided with the read and delayed beside it (no lane comparison on the way)
-    val clearHere = Delay(sweep.reading && here(sweep.lane), crossLatency, init = False)
+    val clearHere = swept.lanes(l).here
     val address = Mux(
       scoreHere,
       scoreAddr,
@@ -646,6 +649,9 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
   beat.keyX := Mux(sweptOut.emit, sweptOut.keyX, compare.accKey.x)
   beat.keyY := Mux(sweptOut.emit, sweptOut.keyY, compare.accKey.y)
   beat.distance := Mux(sweptOut.emit, sweptOut.distance, compare.acc.best.distance)
+  // A scan's decision never meets the sweep's last correspondence: the next item is taken `crossLatency + 2` clocks
+  // after the sweep's last read at the earliest, and its scan reads the RAMs before it decides.
+  require(pushLatency - 1 < crossLatency + 2 + readLatency, "a sweep's correspondence would meet a scan's")
   val push = output.io.push
   push.valid := RegNext(decide.emit || sweptOut.emit) init False
   push.payload := RegNext(beat)

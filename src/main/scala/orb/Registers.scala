@@ -39,8 +39,12 @@ object RegisterMap {
   val id: BigInt = BigInt("4f5242", 16) * 256 + version
   val config: AvalonMMConfig = AvalonMMSlaveFactory.getAvalonConfig(addressWidth = 8, dataWidth = 32)
 
-  /** clocks from a read to its data (`readDataValid`): the address decoded into a register, then the data */
-  val readLatency = 2
+  /** clocks from a read to its data (`readDataValid`): the address decoded into a register, then each group of
+    * sources' selected value (`readGroup` sources a group), then the data */
+  val readLatency = 3
+
+  /** read sources ORed into one register before the groups are ORed into the data */
+  val readGroup = 6
 
   val RATIO_TEST = ControlBit(0, "ratio test", "ratio test on (from the next frame)", _.matcher.defaultRatioTest)
   val CROSS_CHECK = ControlBit(1, "cross-check", "cross-check on (from the next frame)", _.matcher.defaultCrossCheck)
@@ -233,8 +237,9 @@ object RegisterMap {
 }
 
 /** The Avalon-MM slave of `RegisterMap`: the parameters as registers, every read source copied into a register beside
-  * the bus (the counters come from across the chip), a read's address decoded into a register, its data a clock
-  * later (`RegisterMap.readLatency`). Writes take effect a clock after they are accepted. */
+  * the bus (the counters come from across the chip), a read's address decoded into a register, the selected
+  * source of each group of them into a register, the groups ORed into the data (`RegisterMap.readLatency`).
+  * Writes take effect a clock after they are accepted. */
 class RegisterFile(bus: AvalonMM, cfg: OrbConfig, top: OrbTop) extends Area {
   import RegisterMap._
   bus.waitRequestn := True
@@ -254,6 +259,9 @@ class RegisterFile(bus: AvalonMM, cfg: OrbConfig, top: OrbTop) extends Area {
   }
   val selected = RegNext(Vec(sources.map { case (r, _) => bus.read && bus.address === r.address }))
   val reading = RegNext(bus.read) init False
-  bus.readData := RegNext(MuxOH.or(selected.asBits, sources.map(_._2.resize(32).asBits)))
-  bus.readDataValid := RegNext(reading) init False
+  val groups = selected.zip(sources.map(_._2.resize(32).asBits)).grouped(readGroup).toSeq.map { g =>
+    RegNext(MuxOH.or(g.map(_._1), g.map(_._2)))
+  }
+  bus.readData := RegNext(groups.reduce(_ | _))
+  bus.readDataValid := RegNext(RegNext(reading) init False) init False
 }

@@ -19,13 +19,18 @@ final case class RtlMatches(
     drops: Long
 )
 
-/** The matcher alone (a 16-entry store, 4 comparators, an 8-deep output FIFO) against `MatcherModel`, on
+/** The matcher alone (a 16-entry store, 4 comparators, the shortest output FIFO the sweep allows) against `MatcherModel`, on
   * hand-made feature streams: store overflow, thresholds, ratio test, cross-check, ties, empty stores, a slow
   * consumer (nothing lost) and a stalled one (drops after the 200-clock timeout, counted); and a second model with a
   * store of one group, its frames back to back. */
 class MatcherSpec extends AnyFunSuite {
   import TestSupport._
-  val m: MatcherConfig = MatcherConfig(storeCapacity = 16, comparators = 4, outputDepth = 8, outputTimeout = 200)
+  val m: MatcherConfig = MatcherConfig(
+    storeCapacity = 16,
+    comparators = 4,
+    outputDepth = MatcherConfig.pushLatency + 2,
+    outputTimeout = 200
+  )
   val f: FrameConfig = FrameConfig(maxWidth = 128, maxHeight = 128)
   lazy val matcher: SimCompiled[Matcher] = {
     println(s"[orb] compiling the Verilator model of Matcher (16 entries); seed = $seed")
