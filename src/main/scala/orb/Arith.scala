@@ -122,11 +122,12 @@ object Arith {
     def pick(words: Vec[UInt], part: UInt): UInt = words(part)
 
     /** `pick` in two steps, for a register between them: each half of the parts narrowed to its word by the part's
-      * low bits (`halves`), then the half by the part's top bit (`pickHalf`, `part.msb`) */
-    def halves(words: Vec[UInt], part: UInt): Vec[UInt] = {
+      * low bits (`halves`, the part a copy per half), then the half by the part's top bit (`pickHalf`, `part.msb`) */
+    def halves(words: Vec[UInt], partCopies: Seq[UInt]): Vec[UInt] = {
       require(parts >= 2, "a table in one part has no halves")
+      require(partCopies.size == 2, "a copy of the part per half")
       val half = parts / 2
-      Vec((0 until 2).map(u => Vec(words.slice(u * half, u * half + half))(part.resize(log2Up(half)))))
+      Vec((0 until 2).map(u => Vec(words.slice(u * half, u * half + half))(partCopies(u).resize(log2Up(half)))))
     }
     def pickHalf(halves: Vec[UInt], upper: Bool): UInt = halves(U(upper))
   }

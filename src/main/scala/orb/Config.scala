@@ -406,12 +406,13 @@ case class MatcherConfig(
   def ratioWidth: Int = ratioFracBits + 1
 
   /** clocks a live feature holds the matcher: the scan (its groups rounded up to pairs), the RAM read
-    * (`MatcherConfig.readLatency`), the popcount, the lane register, the merge levels, the pair's comparisons and
-    * choice, the accumulation's comparisons and choice, the ratio product, one to decide. A keyframe feature that
-    * replaces an entry holds it no longer: the rescan reads every group once, its pairs as the scan's. */
+    * (`MatcherConfig.readLatency`), the popcount, the lane register, the merge levels (two steps each), the pair's comparisons and
+    * choice, the accumulation's comparisons and choice, the ratio product (registered twice), one to decide. A
+    * keyframe feature that replaces an entry holds it no longer: the rescan reads every group once, its pairs as
+    * the scan's. */
   def clocksPerFeature: Int =
     (groups + 1) / 2 * 2 + MatcherConfig.readLatency + MatcherConfig.popcountStages(this) + 1 +
-      log2Up(comparators) + 2 + 1 + 1 + 1 + 1
+      2 * log2Up(comparators) + 2 + 1 + 2 + 1 + 1
 
   /** an upper bound on the clocks a frame's end item holds the matcher: a live frame's cross-checked entries leave
     * one per clock (storeCapacity), a keyframe's cross-check words are cleared one group per clock, plus the

@@ -59,7 +59,7 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
   val addrWidth = colWidth + 1
   val magnitudeWidth = d.rotationFracBits + 1 // |cos|, |sin| <= 2^rotationFracBits
   val patternWidth = 4 // |pattern coordinate| <= 15
-  val offsetWidth = 6 // rotated offsets lie in [-18, 18]
+  val offsetWidth = log2Up(sampleReach + 1) + 1 // rotated offsets lie in [-18, 18]
   val rowOffsetWidth = log2Up(2 * sampleReach + 1) // ry + 18 in [0, 36]
   val patchRows = 2 * sampleReach + 1
   require(DescriptorSchedule.banks(d) == banks)
@@ -114,10 +114,12 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
     val thisRow = RowInfo()
     thisRow.active := s.pixel.active
     thisRow.frame := clock.frameNext
-    // a row start writes the entry of the count it starts, one more than the count's low bits before it
+    // a row start writes the entry of the count it starts, one more than the count's low bits before it (by a copy
+    // of the row start of the history's own)
     val rowLow = clock.row.resize(log2Up(historyRows))
+    val writesHistory = startsRowCopy()
     for (i <- 0 until historyRows) {
-      when(startsRow && rowLow === (i + historyRows - 1) % historyRows) {
+      when(writesHistory && rowLow === (i + historyRows - 1) % historyRows) {
         history(i) := thisRow
       }
     }
@@ -213,7 +215,10 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
     val item = ReadyCorner()
     val quadrant = UInt(2 bits)
     val cosWords, sinWords = Vec(UInt(magnitudeWidth bits), DescriptorUnit.tableParts)
-    val part = UInt(log2Up(DescriptorUnit.tableParts) bits)
+
+    /** the part, a copy per half of each table (from the index copies of its words): no one register narrows all
+      * four halves */
+    val cosParts, sinParts = Vec(UInt(log2Up(DescriptorUnit.tableParts) bits), 2)
   }
   def lookupCosSin(i: IndexedCorner): CosSinLookup = {
     val o = CosSinLookup()
@@ -221,7 +226,12 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
     o.quadrant := i.item.bin(d.binWidth - 1 downto d.binWidth - 2)
     o.cosWords := cosTable.wordsEach(i.within.toSeq)
     o.sinWords := sinTable.wordsEach(i.within.toSeq)
-    o.part := cosTable.part(i.within.head)
+    // the half u of a table is read with the index copies u * parts / 2 onwards: its part from the first two
+    require(DescriptorUnit.tableParts >= 4, "two index copies per half")
+    for (u <- 0 until 2) {
+      o.cosParts(u) := cosTable.part(i.within(u * DescriptorUnit.tableParts / 2))
+      o.sinParts(u) := sinTable.part(i.within(u * DescriptorUnit.tableParts / 2 + 1))
+    }
     o
   }
 
@@ -237,9 +247,9 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
     val o = CosSinNarrowed()
     o.item := l.item
     o.quadrant := l.quadrant
-    o.cosPair := cosTable.halves(l.cosWords, l.part)
-    o.sinPair := sinTable.halves(l.sinWords, l.part)
-    o.upper := l.part.msb
+    o.cosPair := cosTable.halves(l.cosWords, l.cosParts.toSeq)
+    o.sinPair := sinTable.halves(l.sinWords, l.sinParts.toSeq)
+    o.upper := l.cosParts.head.msb
     o
   }
 
@@ -732,21 +742,21 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
     }
 
     /** floor(v / 2^fb) + 1 when the rest is above the half, or exactly the half and the floor odd (cvRound), then
-      * the sign */
-    def round(s: Sum): SInt = {
+      * the sign, plus `plus`: the low `width` bits of its two's complement */
+    def round(s: Sum, plus: Int, width: Int): UInt = {
       val q = s.high(s.high.high downto 1).resize(offsetWidth)
       val up = s.high(0) && (s.sticky || q.lsb)
-      // (q + up) or -(q + up) = ~q + !up: one adder, the sign folded into its operand and its carry
-      val folded = (q.asBits ^ B(offsetWidth bits, default -> s.negative)).asUInt
-      (folded + U(up ^ s.negative).resize(offsetWidth)).asSInt
+      // (q + up) or -(q + up) = ~q + !up: the sign folded into the operand and the carry in; the carry in as the
+      // low bit of both operands (2a + 1 + 2b + c = 2 (a + b + c) + 1), so that `plus` takes no second adder
+      val folded = (q.asBits ^ B(offsetWidth bits, default -> s.negative)).asSInt.resize(width).asUInt
+      val sum = (folded @@ True) + (U(plus, width bits) @@ (up ^ s.negative))
+      sum(width downto 1)
     }
     val rotated = new Area {
       val token = stepToken(sums.token)
-      val rx = sums.x.map(s => step(round(s)))
+      val rx = sums.x.map(s => step(round(s, 0, offsetWidth).asSInt))
       // ry + 18, in [0, 36]
-      val rowOffset = sums.y.map { s =>
-        step((round(s).resize(offsetWidth + 1) + S(sampleReach, offsetWidth + 1 bits)).asUInt.resize(rowOffsetWidth))
-      }
+      val rowOffset = sums.y.map(s => step(round(s, sampleReach, rowOffsetWidth)))
     }
 
     /** A point on its way to the issue stage: its ring slot and column. */

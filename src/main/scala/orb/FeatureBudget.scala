@@ -415,6 +415,11 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
       picked.score.allowOverride() := MuxOH.or(winsScore, heads.map(_.score))
       picked
     })
+    // the list the winner leaves, one flag per list, registered beside the pick: with `now` the whole of a list's
+    // `leaves` (no bank or cell comparison behind it; the one-hot has exactly one winner, the keys being distinct)
+    val leavesList = Vec(intake.lists.map { case (bk, cell) =>
+      RegNext(wins(cell) && heads(cell).valid && bank === bk) init False
+    })
     require(FeatureBudget.choiceDepth == 4, "the heads, their comparisons, the one-hot and the pick")
     // A winner leaves at this step of its pace, `choiceDepth` clocks after the lists it was chosen from had settled
     // (the pace starts a clock after `choosing`; a list settles two clocks after its winner left).
@@ -433,8 +438,8 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
       pace := Mux(pace === FeatureBudget.winnerClocks - 1, U(0, pace.getWidth bits), pace + 1)
     }
     when(trigger || choosing) { pace := 0 }
-    for (((bk, cell), l) <- intake.lists.zipWithIndex) {
-      intake.perList(l).leaves := now && first.valid && bank === bk && first.cell(cell)
+    for (l <- intake.lists.indices) {
+      intake.perList(l).leaves := now && leavesList(l)
     }
     when(now) {
       when(first.valid) {

@@ -67,8 +67,9 @@ class FrameTracker(c: FrameConfig) extends Component {
   val input = io.pixels.stage()
   val b = input.payload
 
-  /** A start of frame, decoded into a register on the way in: `starts` loads the frame's fields. */
-  val starts = RegNext(io.pixels.valid && io.pixels.sof) init False
+  /** A start of frame, decoded into a register on the way in: `starts` loads the frame's fields (kept apart from
+    * the beat kinds' copies below, which would otherwise take its loads across the tracker). */
+  val starts = keptApart(RegNext(io.pixels.valid && io.pixels.sof) init False)
 
   /** A beat's kind, decoded into registers on the way in, one copy (kept apart) per group of registers it drives:
     * `opens` a start of frame, `runs` any other beat inside a frame (a frame is entered at the first start of
@@ -288,19 +289,32 @@ class FrameTracker(c: FrameConfig) extends Component {
   learntX := learntBeat.getAheadValue()
   learntY := learntBeat.getAheadValue()
 
-  // The fault counters count a clock late: their increments are registered, so no adder waits for the checks.
+  // The fault counters count two clocks late: the checks registered first, the increments formed from them a clock
+  // later, so neither the increments' adders nor the counters wait for the checks.
+  case class FaultChecks() extends Bundle {
+    val opens, closingLine, openingLine, runningLine, closingFrame, openingFrame, runningFrame = Bool()
+  }
+  val checks = Reg(FaultChecks())
+  checks.init(FaultChecks().getZero)
+  checks.opens := flagSide.opens
+  checks.closingLine := close.countLine
+  checks.openingLine := opening.lineFault
+  checks.runningLine := flagSide.runs && running.lineFault && !lineFaulted
+  checks.closingFrame := close.countFrame
+  checks.openingFrame := opening.fault
+  checks.runningFrame := flagSide.runs && running.first
   val lineFaults = RegNext(
     Mux(
-      flagSide.opens,
-      U(close.countLine, 2 bits) + U(opening.lineFault, 2 bits),
-      U(flagSide.runs && running.lineFault && !lineFaulted, 2 bits)
+      checks.opens,
+      U(checks.closingLine, 2 bits) + U(checks.openingLine, 2 bits),
+      U(checks.runningLine, 2 bits)
     )
   ) init 0
   val frameFaults = RegNext(
     Mux(
-      flagSide.opens,
-      U(close.countFrame, 2 bits) + U(opening.fault, 2 bits),
-      U(flagSide.runs && running.first, 2 bits)
+      checks.opens,
+      U(checks.closingFrame, 2 bits) + U(checks.openingFrame, 2 bits),
+      U(checks.runningFrame, 2 bits)
     )
   ) init 0
   badLines := badLines + lineFaults.resize(c.counterWidth)

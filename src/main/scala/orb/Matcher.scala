@@ -453,34 +453,45 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
     case class Best() extends Bundle { val best = Lane(); val second = UInt(distanceWidth bits) }
     def single(l: Lane): Best = { val b = Best(); b.best := l; b.second := none; b }
 
-    /** best of two (the left, earlier entries, on ties) and the second smallest distance of the union. As a best is
-      * never above its second, the second is the smaller of the loser and the winner's own second: the three
-      * comparisons are side by side, none waits for another. */
-    def merge(a: Best, b: Best): Best =
-      select(a, b, takes(a, b), b.second < a.best.distance, a.second < b.best.distance)
-
-    /** `merge` from its three comparisons */
-    def select(a: Best, b: Best, takeB: Bool, bSecondFirst: Bool, aSecondFirst: Bool): Best = {
+    /** The merge of two bests: the best of the two (the left, earlier entries, on ties) and the second smallest
+      * distance of the union. As a best is never above its second, the second is the smaller of the loser and the
+      * winner's own second: its three comparisons are side by side, none waits for another, and are registered
+      * (`compared`) before `select` chooses by them a clock later. */
+    case class Comparisons() extends Bundle { val takeB, bSecondFirst, aSecondFirst = Bool() }
+    def compared(a: Best, b: Best): Comparisons = {
+      val c = Comparisons()
+      c.takeB := takes(a, b)
+      c.bSecondFirst := b.second < a.best.distance
+      c.aSecondFirst := a.second < b.best.distance
+      RegNext(c)
+    }
+    def select(a: Best, b: Best, c: Comparisons): Best = {
       val r = Best()
-      r.best := Mux(takeB, b.best, a.best)
-      r.second := Mux(takeB, Mux(bSecondFirst, b.second, a.best.distance), Mux(aSecondFirst, a.second, b.best.distance))
+      r.best := Mux(c.takeB, b.best, a.best)
+      r.second := Mux(
+        c.takeB,
+        Mux(c.bSecondFirst, b.second, a.best.distance),
+        Mux(c.aSecondFirst, a.second, b.best.distance)
+      )
       r
     }
     def takes(a: Best, b: Best): Bool = b.best.distance < a.best.distance
-    // The lanes' results registered, then a register after every level of the merge tree. The keyframe positions
-    // follow a clock behind, each level chosen by its merge's registered choice: no comparison drives their
-    // selection (the lanes lie apart).
+    // The lanes' results registered, then every level of the merge tree in two steps: its three comparisons
+    // registered with its halves, its choice a clock later (as the pairs' below). The keyframe positions follow a
+    // clock behind, each level's chosen by its registered choice: no comparison drives their selection (the lanes
+    // lie apart).
     val outValid = RegNext(valid) init False
     val outGroup = RegNext(group)
     var level: Seq[(Best, Key)] = results.map(r => (RegNext(single(r.out)), RegNext(RegNext(r.key))))
     while (level.size > 1) level = level.grouped(2).map { g =>
       val ((a, aKey), (b, bKey)) = (g(0), g(1))
-      val takeB = RegNext(takes(a, b))
-      (RegNext(merge(a, b)), RegNext(Mux(takeB, bKey, aKey)))
+      val c = compared(a, b)
+      val chosen = RegNext(select(RegNext(a), RegNext(b), c))
+      (chosen, RegNext(Mux(RegNext(c.takeB), RegNext(bKey), RegNext(aKey))))
     }.toSeq
     val merged = level.head._1
     val mergedKey = level.head._2
-    val mergeLevels = log2Up(P)
+    val mergeLevels = 2 * log2Up(P)
     val mergedValid = Delay(outValid, mergeLevels, init = False)
     val mergedGroup = Delay(outGroup, mergeLevels)
     // Consecutive groups merged in pairs (an even group, registered, with the odd one after it): the running best
@@ -495,17 +506,15 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
     val pairing = new Area {
       val a = RegNext(held)
       val b = RegNext(merged)
-      val takeB = RegNext(takes(held, merged))
-      val bSecondFirst = RegNext(merged.second < held.best.distance)
-      val aSecondFirst = RegNext(held.second < merged.best.distance)
+      val c = compared(held, merged)
       val valid = RegNext(mergedValid && odd) init False
       val last = RegNext(mergedValid && mergedGroup === groupsCompared.lessOne) init False
     }
     val pairValid = RegNext(pairing.valid) init False
     val pairLast = RegNext(pairing.last) init False
-    val pair = RegNext(select(pairing.a, pairing.b, pairing.takeB, pairing.bSecondFirst, pairing.aSecondFirst))
+    val pair = RegNext(select(pairing.a, pairing.b, pairing.c))
     // the keys a clock behind: the odd group's key comes a clock after its result, the choice with it
-    val pairTakes = RegNext(pairing.takeB)
+    val pairTakes = RegNext(pairing.c.takeB)
     val pairKey = RegNext(Mux(pairTakes, RegNext(mergedKey), RegNext(heldKey)))
     // The running best starts as "none" when a scan starts (long before its first pair arrives): the first pair
     // then takes it over in the same merge as every later one (its entry 0 is real), no choice of the first.
@@ -523,29 +532,28 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
       val valid = RegNext(pairValid) init False
       val last = RegNext(pairValid && pairLast) init False
       val candidate = RegNext(pair)
-      val takeB = RegNext(takes(acc, pair))
-      val bSecondFirst = RegNext(pair.second < acc.best.distance)
-      val aSecondFirst = RegNext(acc.second < pair.best.distance)
+      val c = compared(acc, pair)
     }
     when(choose.valid) {
-      acc := select(acc, choose.candidate, choose.takeB, choose.bSecondFirst, choose.aSecondFirst)
+      acc := select(acc, choose.candidate, choose.c)
     }
     // the pair's key is a clock behind the pair: beside the choice
-    when(choose.valid && choose.takeB) { accKey := pairKey }
+    when(choose.valid && choose.c.takeB) { accKey := pairKey }
     val lastGroup = RegNext(choose.last) init False
   }
 
   // A feature's scan is over when its last group has been accumulated: accept or not, then the next feature.
   val decide = new Area {
-    // A clock after the last group, so that the ratio's product is registered before it is compared.
-    val done = RegNext(compare.lastGroup) init False
+    // Two clocks after the last group, so that the ratio's product is registered twice before it is compared (the
+    // multiplier's own output register, then a plain one beside the comparison).
+    val done = Delay(compare.lastGroup, 2, init = False)
     val emptyDone = scan.busy && groupsCompared.zero // an empty store: nothing to scan
     val a = compare.acc
     val p = frame.params
-    val ratioSecond = RegNext((p.ratio * a.second).resize(distanceWidth + m.ratioFracBits + 1))
+    val ratioSecond = RegNext(RegNext((p.ratio * a.second).resize(distanceWidth + m.ratioFracBits + 1)))
     val ratioOk =
       !p.ratioTest || ((a.best.distance << m.ratioFracBits).resize(distanceWidth + m.ratioFracBits + 1) < ratioSecond)
-    // everything but the ratio decided a clock early, in registers: the best is final from the clock before `done`
+    // everything but the ratio decided early, in registers: the best is final from two clocks before `done`
     val withinThreshold = RegNext(a.best.distance <= p.hammingThreshold) init False
     val accepted = done && withinThreshold && ratioOk
     when(done || emptyDone) {
