@@ -401,11 +401,11 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
     }
     val before = (for (i <- 0 until cells; j <- i + 1 until cells)
       yield (i, j) -> RegNext(order(heads(i)) < order(heads(j)))).toMap
-    // the one-hot twice (kept apart): one picks the score, the other the rest of the entry
+    // the one-hot three times (kept apart): one picks the score, one the key, the other the rest of the entry
     val winsNext = Vec((0 until cells).map { i =>
       (0 until cells).filter(_ != i).map(j => if (i < j) before((i, j)) else !before((j, i))).foldLeft(True)(_ && _)
     })
-    val Seq(winsScore, wins) = Seq.fill(2) {
+    val Seq(winsScore, winsKey, wins) = Seq.fill(3) {
       val r = RegNext(winsNext)
       r.foreach(_.init(False))
       keptApart(r)
@@ -413,6 +413,7 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
     val first = RegNext({
       val picked = MuxOH.or(wins, heads)
       picked.score.allowOverride() := MuxOH.or(winsScore, heads.map(_.score))
+      picked.key.allowOverride() := MuxOH.or(winsKey, heads.map(_.key))
       picked
     })
     // the list the winner leaves, one flag per list, registered beside the pick: with `now` the whole of a list's

@@ -144,10 +144,14 @@ class OrientationUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, c
     val lastX, lastY = UInt(cw bits)
   }
   // The RAM's data into a plain register first (the RAM's output register: nothing else reads it), then a buffer
-  // (its readiness through a register too: no decision on the head reaches the queue's RAM and pointers).
+  // (its readiness through a register too: no decision on the head reaches the queue's RAM and pointers), then the
+  // corner after the head, which takes one only when empty (its readiness a register: the head's decision reaches
+  // no further back). The head passes a corner at most every other clock (corners' last columns come two pixels
+  // apart at least, and a head waits a clock for its comparisons), so that is fast enough: the corner after the
+  // head is in place again in the clock the head can next fire.
   val fromRam = queue.io.pop.m2sPipe(flush = sums.frameStart)
   val buffered = fromRam.s2mPipe(flush = sums.frameStart)
-  val popped = buffered.m2sPipe(flush = sums.frameStart)
+  val popped = Pipes.halfPipe(buffered, 1, flush = sums.frameStart)
   val head = popped.map { c =>
     val w = Waiting()
     w.corner := c

@@ -32,8 +32,8 @@ object Pipes {
 
   /** `in.halfPipe()` (a beat every other clock, the ready the valid register's complement) whose payload is loaded in
     * `parts` slices, each by its own copy of the "empty" flag (kept apart): no one register enables every bit of a
-    * wide payload. */
-  def halfPipe[T <: Data](in: Stream[T], parts: Int): Stream[T] = {
+    * wide payload. A `flush` empties it (what it takes in that clock too). */
+  def halfPipe[T <: Data](in: Stream[T], parts: Int, flush: Bool = null): Stream[T] = {
     require(parts >= 1)
     val out = Stream(cloneOf(in.payload))
     val valid = RegInit(False)
@@ -42,6 +42,11 @@ object Pipes {
     }
     when(out.fire) {
       valid := False
+    }
+    if (flush != null) {
+      when(flush) {
+        valid := False
+      }
     }
     val bits = in.payload.asBits
     val width = bits.getWidth
