@@ -9,16 +9,9 @@ object Arith {
   /** operand width of the target's multiplier blocks (18 x 18 on Cyclone II and on the ECP5 proxy, unsigned too) */
   val multiplierWidth: Int = 18
 
-  /** v * k for a constant k >= 0, as a sum of shifted copies of v (no multiplier block); `width` bits out. */
+  /** v * k for a constant k >= 0, `width` bits out: the shifted copies of v for k's set bits, reduced by 3:2
+    * compressors (a LUT level each) into one adder: a single carry chain however many bits k has set. */
   def constMul(v: UInt, k: Int, width: Int): UInt = {
-    require(k >= 0)
-    val terms = (0 until 31).filter(b => ((k >> b) & 1) == 1).map(b => v.resize(width) |<< b)
-    if (terms.isEmpty) U(0, width bits) else terms.reduceBalancedTree(_ + _)
-  }
-
-  /** v * k for a constant k >= 0 as `constMul`, its terms reduced by 3:2 compressors (a LUT level each) into one
-    * adder: a single carry chain however many bits k has set. */
-  def constMulCarrySave(v: UInt, k: Int, width: Int): UInt = {
     require(k >= 0)
     carrySaveSum((0 until 31).filter(b => ((k >> b) & 1) == 1).map(b => v.resize(width) |<< b), width)
   }
@@ -120,6 +113,15 @@ object Arith {
       if (index.getWidth <= low) U(0, log2Up(parts) bits) else index(index.high downto low).resize(log2Up(parts))
     }
     def pick(words: Vec[UInt], part: UInt): UInt = words(part)
+
+    /** `pick` with a copy of the part per group of bits (equal groups, the first in the low bits): no one register
+      * selects every bit */
+    def pickEach(words: Vec[UInt], partCopies: Seq[UInt]): UInt = {
+      require(width % partCopies.size == 0, s"$width bits in ${partCopies.size} equal groups")
+      val g = width / partCopies.size
+      // Cat of a sequence puts its first element in the low bits
+      Cat(partCopies.zipWithIndex.map { case (part, i) => Vec(words.map(_(i * g, g bits)))(part) }).asUInt
+    }
 
     /** `pick` in two steps, for a register between them: each half of the parts narrowed to its word by the part's
       * low bits (`halves`, the part a copy per half), then the half by the part's top bit (`pickHalf`, `part.msb`) */

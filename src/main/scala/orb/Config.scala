@@ -440,6 +440,10 @@ object MatcherConfig {
   /** Parts of the input register's payload (a feature), each loaded by its own copy of the register's empty flag. */
   val itemParts: Int = 8
 
+  /** Parts of the rescan's score comparisons, side by side (`Arith.comparedInParts`): a part's equality one LUT level
+    * less than in halves. */
+  val scoreParts: Int = 3
+
   /** Parts of a lane's copy of the live descriptor, each loaded by its own copy of the idle flag. */
   val liveDescriptorParts: Int = 8
 

@@ -282,7 +282,7 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
     // lookups, the parts narrowed to two, the pick with the quadrant's swap, each step with its valid and ready
     // registered (no chain of readies from the decision back to the queue): a step passes a corner every other
     // clock, and corners are an engine's run apart
-    val indexedHead = Pipes.halfPipeKeeping(ready.io.pop.map(indexed))(_.within.toSeq)
+    val indexedHead = Pipes.halfPipe(ready.io.pop.map(indexed), kept = (c: IndexedCorner) => c.within.toSeq)
     val lookedUp = Pipes.halfPipe(indexedHead.map(lookupCosSin), DescriptorUnit.lookupParts)
     val narrowed = Pipes.halfPipe(lookedUp.map(narrowCosSin), DescriptorUnit.lookupParts)
     val head = Pipes.halfPipe(narrowed.map(prepare), DescriptorUnit.lookupParts)
@@ -482,17 +482,26 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
       }
     }
 
-    /** The oldest corner's feature was handed on, or its abandonment counted. */
-    def handOn(): Unit = {
-      for (s <- slots) {
-        when(s.leavesNext) {
+    /** The oldest corner's feature is handed on when `taken` (the output takes it), or its abandonment counted: each
+      * slot decides on its own turn flag and state (`leavesNext` is set in the oldest slot only: no choice by
+      * `outTag` before a slot's release). */
+    def handOn(taken: Bool): Unit = {
+      val leaving = slots.map { s =>
+        val leaves = s.leavesNext && ((s.state === EngineState.FINISHED && taken) || s.state === EngineState.ABANDONED)
+        when(leaves) {
           s.release()
         }
-        s.leavesNext := !s.leavesNext
+        leaves
       }
-      outTag := !outTag
-      for (t <- outTags) {
-        t := !t
+      val any = leaving.reduce(_ || _)
+      when(any) {
+        for (s <- slots) {
+          s.leavesNext := !s.leavesNext
+        }
+        outTag := !outTag
+        for (t <- outTags) {
+          t := !t
+        }
       }
     }
 
@@ -629,13 +638,18 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
           def countCopy(): UInt = keptApart(step(fetch.group.resize(log2Up(groups))))
           val indexCopies = (0 until DescriptorUnit.tableParts).map(_ => countCopy())
           val words = Vec(table.wordsEach(indexCopies).map(step(_)))
-          val part = keptApart(stepApart(table.part(countCopy())))
+          // the part, a copy per point's coordinate (kept apart), from one count copy
+          val partCount = countCopy()
+          val parts = Seq.fill(sliceWidth / fieldWidth)(keptApart(stepApart(table.part(partCount))))
         }
       }
       // Cat of a sequence puts its first element in the low bits: slice 0 there, as in the table's words
-      val picked = stepApart(Cat(slices.map(sl => sl.table.pick(sl.words, sl.part))))
-      val bits = stepApart(picked)
-      private def field(k: Int): Bits = bits(k * (patternWidth + 1), patternWidth + 1 bits)
+      val picked = stepApart(Cat(slices.map(sl => sl.table.pickEach(sl.words, sl.parts))))
+      // a register per point, each enabled by a copy of `advance` of its own: each lies beside its point's
+      // multipliers, which lie apart across the chip
+      val pointWidth = 2 * fieldWidth
+      val points = (0 until pointsPerGroup).map(i => stepApart(picked(i * pointWidth, pointWidth bits)))
+      private def field(k: Int): Bits = points(k / 2)((k % 2) * fieldWidth, fieldWidth bits)
 
       /** point i: |x|, x < 0, |y|, y < 0 */
       def x(i: Int): UInt = field(2 * i).resize(patternWidth).asUInt
@@ -1060,13 +1074,8 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
   output.score := oldest(_.corner.corner.score)
   output.keyframe := Mux(finished, oldest(_.corner.keyframe), dispatch.c.end.info.keyframe)
   output.descriptor := oldest(_.descriptor)
-  when(finished && output.ready) {
-    engine.handOn()
-  }
+  engine.handOn(output.ready)
   val engineDrop = oldest(_.state === EngineState.ABANDONED)
-  when(engineDrop) {
-    engine.handOn()
-  }
 
   /** The features leave through a half-rate register (as `halfPipe`: its valid, the offer's ready and the payload's
     * load enable all registers, so the matcher's readiness does not reach the engine's state or the 256-bit payload

@@ -147,6 +147,22 @@ object Ecp5Proxy {
     io.product := RegNext(product + 1)
   }
 
+  /** An operand register that loads a constant on a condition, only when enabled (as the angle search's tangents):
+    * synthesis folds the constant into the flip-flops as a synchronous set or reset of the enable and the condition,
+    * which the multiplier's input register has not; the packing folds it back into a LUT before it. */
+  class ResetMulProbe extends Component {
+    val io = new Bundle {
+      val a = in UInt (16 bits)
+      val b = in UInt (16 bits)
+      val enable, constant = in Bool ()
+      val product = out UInt (32 bits)
+    }
+    val a = RegNextWhen(Mux(io.constant, U(0xb5a3, 16 bits), io.a), io.enable)
+    val b = RegNextWhen(io.b, io.enable)
+    val product = RegNext(a * b)
+    io.product := RegNext(product + 1)
+  }
+
   final case class Path(
       from: String,
       to: String,

@@ -281,7 +281,7 @@ class HarrisDetector(f: FrameConfig, h: HarrisConfig, columnRows: Int, stages: H
   val kTrace = new kTraceNode.Area {
     // kNum * tr^2 by shifts and adds (kNum is a small constant), in one carry chain behind the multiplier
     val KTR2 = insert(
-      floorShift(constMulCarrySave(multiply.TR2, h.kNum, h.kTrace2Width + h.kShift), h.kShift).resize(h.kTrace2Width)
+      floorShift(constMul(multiply.TR2, h.kNum, h.kTrace2Width + h.kShift), h.kShift).resize(h.kTrace2Width)
     )
     val DET = insert(multiply.XXYY.intoSInt.resize(h.detWidth) - multiply.XY2.intoSInt.resize(h.detWidth))
   }
@@ -301,11 +301,16 @@ class HarrisDetector(f: FrameConfig, h: HarrisConfig, columnRows: Int, stages: H
     val scores = new RowWindow(RowWindowConfig(3, f.maxWidth, h.scoreWidth))
     val WINDOW = at(stages.window).insert(scores.column(read.isValid, read(PIXEL).x, read(response.SCORE).asBits))
     val n = at(stages.suppress)
-    val cols = lastValid(Vec(n(WINDOW).map(_.asUInt)), 3, validCopy(stages.suppress)) // 0: x, 1: x-1 (centre), 2: x-2
+    val shift = validCopy(stages.suppress)
+    val cols = lastValid(Vec(n(WINDOW).map(_.asUInt)), 3, shift) // 0: x, 1: x-1 (centre), 2: x-2
     // Row 0 is the newest (below the centre), row 2 the oldest (above).
-    val centre = cols(1)(1)
+    val centre = keptApart(cols(1)(1))
     val earlier = Seq(cols(2)(2), cols(1)(2), cols(0)(2), cols(2)(1))
     val later = Seq(cols(0)(1), cols(2)(0), cols(1)(0), cols(0)(0))
+    // the centre's copies (kept apart, as the centre itself), each for a third of its nine comparisons: no one
+    // register reaches every comparison's parts
+    val centreCopies = Seq.fill(3)(keptApart(RegNextWhen(cols(0)(1), shift)))
+    def centreFor(comparison: Int): UInt = centreCopies(comparison * centreCopies.size / 9)
     val p = n(PIXEL)
     // The geometry registers only change at a start of frame that follows a good frame of the same geometry,
     // so beats still in flight from the previous frame see the right values.
@@ -326,8 +331,9 @@ class HarrisDetector(f: FrameConfig, h: HarrisConfig, columnRows: Int, stages: H
     val unreachable = RegNext(if (h.scoreWidth < widthOf(t)) t(t.high downto h.scoreWidth).orR else False) init False
     val FLAGS = n.insert(Vec(Seq(p.active, !unreachable) ++ n(INSIDE)))
     val COMPARED = n.insert(
-      Vec(Seq(parts(centre, control.threshold.resize(h.scoreWidth), orEqual = false)) ++
-        earlier.map(parts(centre, _, orEqual = false)) ++ later.map(parts(centre, _, orEqual = true)))
+      Vec(Seq(parts(centreFor(0), control.threshold.resize(h.scoreWidth), orEqual = false)) ++
+        earlier.zipWithIndex.map { case (e, i) => parts(centreFor(1 + i), e, orEqual = false) } ++
+        later.zipWithIndex.map { case (l, i) => parts(centreFor(5 + i), l, orEqual = true) })
     )
     val CENTRE = n.insert(centre)
     val c = at(stages.combine)
@@ -354,4 +360,6 @@ class HarrisDetector(f: FrameConfig, h: HarrisConfig, columnRows: Int, stages: H
 
   pipeline.build()
   Pipes.keepValidsApart(pipeline)
+  // the registered column kept apart: the smoother's centre tap is its twin (see `Smoother`)
+  keptApart(at(1)(COLUMN))
 }

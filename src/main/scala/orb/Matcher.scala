@@ -329,13 +329,14 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
     val base = Delay(rescan.group.resize(countWidth) |<< log2Up(P), crossLatency + 1)
     val first = Delay(rescan.issuing && rescan.group === 0, crossLatency + 1, init = False)
     // the group's lowest score, the first lane on ties, in four registered steps: every pair of lanes compared side
-    // by side, in halves (no carry through a whole score in one clock), the halves combined, the lane below every
+    // by side, in parts (no carry through a whole score in one clock), the parts combined, the lane below every
     // lane before it and not above any after it picked, its score selected (no comparison waits for a choice, no
     // choice for a comparison). Only the pairs of a lane with an earlier one are compared: the picks need no other.
     val values = scores.map(s => Delay(s, 3))
     def below(i: Int, j: Int): Bool = {
       require(j < i)
-      RegNext(Arith.combineParts(RegNext(Arith.comparedInParts(scores(j), scores(i), orEqual = false, 2))))
+      val parts = Arith.comparedInParts(scores(j), scores(i), orEqual = false, MatcherConfig.scoreParts)
+      RegNext(Arith.combineParts(RegNext(parts)))
     }
     val belowEarlier = (0 until P).map(i => (0 until i).map(j => below(i, j)))
     val picks = RegNext(Vec((0 until P).map { i =>

@@ -32,8 +32,15 @@ object Pipes {
 
   /** `in.halfPipe()` (a beat every other clock, the ready the valid register's complement) whose payload is loaded in
     * `parts` slices, each by its own copy of the "empty" flag (kept apart): no one register enables every bit of a
-    * wide payload. A `flush` empties it (what it takes in that clock too). */
-  def halfPipe[T <: Data](in: Stream[T], parts: Int, flush: Bool = null): Stream[T] = {
+    * wide payload, and the valid register drives the handshake only. The payload's fields `kept` stay apart as
+    * registers (copies of one value that drive different logic). A `flush` empties it (what it takes in that clock
+    * too). */
+  def halfPipe[T <: Data](
+      in: Stream[T],
+      parts: Int = 1,
+      flush: Bool = null,
+      kept: T => Seq[Data] = (_: T) => Nil
+  ): Stream[T] = {
     require(parts >= 1)
     val out = Stream(cloneOf(in.payload))
     val valid = RegInit(False)
@@ -48,40 +55,17 @@ object Pipes {
         valid := False
       }
     }
+    val payload = Reg(cloneOf(in.payload))
+    kept(payload).foreach(keptApart(_))
     val bits = in.payload.asBits
     val width = bits.getWidth
     val partWidth = (width + parts - 1) / parts
-    val stored = Reg(Bits(width bits))
     for (p <- 0 until parts if p * partWidth < width) {
       val empty = keptApart(RegNext(!valid.getAheadValue()) init True)
       val slice = (width - p * partWidth) min partWidth
       when(empty) {
-        stored(p * partWidth, slice bits) := bits(p * partWidth, slice bits)
+        payload.assignFromBits(bits(p * partWidth, slice bits), p * partWidth, slice bits)
       }
-    }
-    in.ready := !valid
-    out.valid := valid
-    out.payload.assignFromBits(stored)
-    out
-  }
-
-  /** `in.halfPipe()` (a beat every other clock, the ready from the valid register) whose payload fields `kept` stay
-    * apart as registers (copies of one value that drive different logic); the payload loaded by a copy of the
-    * "empty" flag of its own (the valid register drives the handshake only) */
-  def halfPipeKeeping[T <: Data](in: Stream[T])(kept: T => Seq[Data]): Stream[T] = {
-    val out = Stream(cloneOf(in.payload))
-    val valid = RegInit(False)
-    val payload = Reg(cloneOf(in.payload))
-    kept(payload).foreach(keptApart(_))
-    when(in.valid) {
-      valid := True
-    }
-    when(out.fire) {
-      valid := False
-    }
-    val empty = keptApart(RegNext(!valid.getAheadValue()) init True)
-    when(empty) {
-      payload := in.payload
     }
     in.ready := !valid
     out.valid := valid

@@ -4,6 +4,7 @@ import spinal.core._
 import spinal.lib._
 import spinal.lib.misc.pipeline._
 import Arith._
+import orb.Pipes.keptApart
 
 /** The 7x7 Gaussian (sigma 2) of `orb.model.OrbModel.smooth`, computed in the stream from the newest 7 rows of the
   * shared raw column: vertical taps first, then 7 registers that advance with valid pixels; integer kernel
@@ -27,12 +28,15 @@ class Smoother(f: FrameConfig, columnRows: Int) extends Component {
     for (r <- blurKernel.indices) n(TAPS)(r) := p.column(r)
   }
 
-  /** Symmetric 7-tap weighted sum in four registered steps: pre-add the mirrored taps at `pre`, weigh them (shifts
-    * and one add each) at the next node, add them in pairs at the one after, and the two halves at the last. */
+  /** Symmetric 7-tap weighted sum in four registered steps: pre-add the mirrored taps at `pre`, weigh them (shifted
+    * copies into one adder each: `constMul`) at the next node, add them in pairs at the one after, and the two halves
+    * at the last. */
+  private val firstRegisters = scala.collection.mutable.ArrayBuffer[(Int, Payload[Vec[UInt]])]()
   private def gauss7(values: collection.IndexedSeq[UInt], pre: Int, width: Int): UInt = {
     val pairs = at(pre).insert(Vec(Seq((0, 6), (1, 5), (2, 4)).map { case (i, j) =>
       values(i).resize(width) + values(j).resize(width)
     } :+ values(3).resize(width)))
+    firstRegisters += ((pre + 1, pairs))
     val terms = at(pre + 1).insert(Vec(at(pre + 1)(pairs).zip(blurKernel.take(4)).map { case (v, k) =>
       constMul(v, k, width)
     }))
@@ -52,12 +56,17 @@ class Smoother(f: FrameConfig, columnRows: Int) extends Component {
     val ROUNDED = at(Smoother.round).insert((sum(23 downto 16) +^ sum(15 downto 15)).resize(8))
   }
 
+  // The position's tests a stage before the flags they make (registered): no flag waits for a comparison.
   val flags = new Area {
+    val tests = at(Smoother.latency - 2)
+    val X_ZERO = tests.insert(tests(PIXEL).x === 0)
+    val Y_ZERO = tests.insert(tests(PIXEL).y === 0)
+    val X_BLURRED = tests.insert(tests(PIXEL).x >= OrbDescriptorConfig.blurRadius)
     val n = at(Smoother.latency - 1)
-    val p = n(PIXEL)
-    val ROW_START = n.insert(p.x === 0 && p.active)
-    val FRAME_START = n.insert(p.x === 0 && p.y === 0)
-    val HOLDS_SMOOTHED = n.insert(p.active && p.x >= OrbDescriptorConfig.blurRadius)
+    val active = n(PIXEL).active
+    val ROW_START = n.insert(n(X_ZERO) && active)
+    val FRAME_START = n.insert(n(X_ZERO) && n(Y_ZERO))
+    val HOLDS_SMOOTHED = n.insert(active && n(X_BLURRED))
   }
   val out = at(Smoother.latency)
   io.smoothed.valid := out.isValid
@@ -69,6 +78,9 @@ class Smoother(f: FrameConfig, columnRows: Int) extends Component {
 
   pipeline.build()
   Pipes.keepValidsApart(pipeline)
+  // A sum's first registers kept apart: the column sum's centre tap is the twin of Harris's registered column, which
+  // synthesis would otherwise drive both blocks from (Harris keeps its own apart too).
+  firstRegisters.foreach { case (node, payload) => keptApart(at(node)(payload)) }
 }
 
 object Smoother {

@@ -24,15 +24,19 @@ class ReportSpec extends AnyFunSuite {
       (make, expected) <- Seq[(() => Component, String)](
         (
             () => new Ecp5Proxy.RamProbe
-        ) -> "ram_ports=1 ram_ffs=16 mult_inputs=0 mult_constant_inputs=0 mult_outputs=0 mult_ffs=0 mult_constant_pins=0 inverted_enables=0",
+        ) -> "ram_ports=1 ram_ffs=16 mult_inputs=0 mult_constant_inputs=0 mult_outputs=0 mult_ffs=0 mult_constant_pins=0 inverted_enables=0 mult_resets_folded=0",
         // both operand registers and the product register (16 + 16 + 32 flip-flops)
         (
             () => new Ecp5Proxy.MulProbe
-        ) -> "ram_ports=0 ram_ffs=0 mult_inputs=2 mult_constant_inputs=0 mult_outputs=1 mult_ffs=64 mult_constant_pins=5 inverted_enables=0",
+        ) -> "ram_ports=0 ram_ffs=0 mult_inputs=2 mult_constant_inputs=0 mult_outputs=1 mult_ffs=64 mult_constant_pins=5 inverted_enables=0 mult_resets_folded=0",
         // the variable operand's register and the product register; the constant operand registered with them
         (
             () => new Ecp5Proxy.ConstMulProbe
-        ) -> "ram_ports=0 ram_ffs=0 mult_inputs=1 mult_constant_inputs=1 mult_outputs=1 mult_ffs=48 mult_constant_pins=5 inverted_enables=0"
+        ) -> "ram_ports=0 ram_ffs=0 mult_inputs=1 mult_constant_inputs=1 mult_outputs=1 mult_ffs=48 mult_constant_pins=5 inverted_enables=0 mult_resets_folded=0",
+        // an operand register with a synchronous set/reset of its enable: folded into LUTs before the block's register
+        (
+            () => new Ecp5Proxy.ResetMulProbe
+        ) -> "ram_ports=0 ram_ffs=0 mult_inputs=2 mult_constant_inputs=0 mult_outputs=1 mult_ffs=64 mult_constant_pins=5 inverted_enables=0 mult_resets_folded=16"
       )
     ) {
       val r = Generate.spinalConfig(dir.getPath).generate(make())

@@ -114,6 +114,57 @@ def pack(src, dst, top):
         # an enable active low: ("INV", net), which a block's enable pin takes through an inverter
         return k["CLK"][0], ("INV", ce) if ce_mux == "INV" else ce
 
+    def lut_implies(net, implied):
+        """`net` is driven by a LUT4 with `implied` on an input, whose output is 1 only where that input is 1"""
+        d = drv.get(net) if isinstance(net, int) else None
+        if d is None or cells[d[0]]["type"] != "LUT4" or d[1] != "Z":
+            return False
+        c = cells[d[0]]
+        init = c["parameters"]["INIT"]
+        bits = [int(ch) for ch in reversed(init)] if len(init) == 16 else [(int(init, 0) >> i) & 1 for i in range(16)]
+        pins = [i for i, pin in enumerate("ABCD") if c["connections"].get(pin, ["0"])[0] == implied]
+        return bool(pins) and all(not bits[i] or any((i >> p) & 1 for p in pins) for i in range(16))
+
+    def input_ff(name):
+        """a flip-flop a multiplier's input register can take: `plain_ff` with an enable, or one whose synchronous
+        set or reset acts only with its enable (the reset a LUT of the enable: yosys folds a constant into the
+        flip-flop that way); returns (clock, enable, None or (reset net, value)) or None"""
+        info = plain_ff(name, allow_enable=True)
+        if info is not None:
+            return info[0], info[1], None
+        c = cells.get(name)
+        if c is None or c["type"] != "TRELLIS_FF":
+            return None
+        p, k = c["parameters"], c["connections"]
+        if p.get("SRMODE", "LSR_OVER_CE").strip() != "LSR_OVER_CE" or p.get("LSRMUX", "LSR").strip() != "LSR":
+            return None
+        if p.get("CLKMUX", "CLK").strip() != "CLK" or p.get("CEMUX", "1").strip() != "CE":
+            return None
+        lsr, ce = k.get("LSR", ["0"])[0], k.get("CE", ["1"])[0]
+        if not lut_implies(lsr, ce):
+            return None
+        return k["CLK"][0], ce, (lsr, 1 if p.get("REGSET", "RESET").strip() == "SET" else 0)
+
+    folded = {}
+
+    def folded_input(ff, reset):
+        """the D input of flip-flop `ff` with its synchronous set or reset `reset` folded in, through a LUT (as Quartus
+        would feed a multiplier's input register, which has none): DI, or the reset's value while the reset is on"""
+        if ff in folded:
+            return folded[ff]
+        net, value = reset
+        out = next_bit[0]
+        next_bit[0] += 1
+        folded[ff] = out
+        # Z = B ? value : A, for every C, D
+        init = "".join(str(value if (i >> 1) & 1 else i & 1) for i in reversed(range(16)))
+        cells[f"orb_reset_fold_{out}"] = {
+            "hide_name": 0, "type": "LUT4", "parameters": {"INIT": init}, "attributes": {},
+            "port_directions": {"A": "input", "B": "input", "C": "input", "D": "input", "Z": "output"},
+            "connections": {"A": cells[ff]["connections"]["DI"], "B": [net], "C": ["0"], "D": ["0"], "Z": [out]}}
+        packed["mult_resets_folded"] += 1
+        return out
+
     def registers_behind(outputs, clock, allow_enable):
         """the flip-flops that `outputs` (pin, bit) each feed alone: same clock (`clock`, or the first one's when
         None), no reset, one common enable; returns (clock, enable, [(pin, flip-flop)]) or None"""
@@ -149,7 +200,7 @@ def pack(src, dst, top):
         return out
 
     packed = {"ram_ports": 0, "ram_ffs": 0, "mult_inputs": 0, "mult_constant_inputs": 0, "mult_outputs": 0, "mult_ffs": 0,
-              "mult_constant_pins": 0, "inverted_enables": 0}
+              "mult_constant_pins": 0, "inverted_enables": 0, "mult_resets_folded": 0}
 
     # ---- RAM output registers ----
     sinks = bit_sinks()
@@ -212,15 +263,15 @@ def pack(src, dst, top):
                 if d is None or d[1] != "Q":
                     ok = False
                     break
-                info = plain_ff(d[0], allow_enable=True)
+                info = input_ff(d[0])
                 if info is None or (clock is not None and info[0] != clock) or (enable is not None and info[1] != enable):
                     ok = False
                     break
                 if any(cells[s[0]]["type"] != "MULT18X18D" if s[0] in cells else True for s in sinks[b]):
                     ok = False
                     break
-                clock, enable = info
-                ffs[pin] = d[0]
+                clock, enable, reset = info
+                ffs[pin] = (d[0], reset)
             if not ok or not ffs:
                 continue
             ce = ce_pin(enable)
@@ -229,8 +280,8 @@ def pack(src, dst, top):
             p[f"REG_INPUT{x}_CLK"] = "CLK0"
             p[f"REG_INPUT{x}_CE"] = ce
             p[f"REG_INPUT{x}_RST"] = "RST0"
-            for pin, ff in ffs.items():
-                k[pin] = cells[ff]["connections"]["DI"]
+            for pin, (ff, reset) in ffs.items():
+                k[pin] = [folded_input(ff, reset)] if reset is not None else cells[ff]["connections"]["DI"]
                 absorbed_inputs.add(ff)
             packed["mult_inputs"] += 1
         # an input of constants only (a product by a constant table entry) is the same constant through a register:
