@@ -151,7 +151,7 @@ class OrientationUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, c
   // head is in place again in the clock the head can next fire.
   val fromRam = queue.io.pop.m2sPipe(flush = sums.frameStart)
   val buffered = fromRam.s2mPipe(flush = sums.frameStart)
-  val popped = Pipes.halfPipe(buffered, 1, flush = sums.frameStart)
+  val popped = Pipes.halfPipe(buffered, flush = sums.frameStart)
   val head = popped.map { c =>
     val w = Waiting()
     w.corner := c
