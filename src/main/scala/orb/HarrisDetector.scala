@@ -310,7 +310,9 @@ class HarrisDetector(f: FrameConfig, h: HarrisConfig, columnRows: Int, stages: H
     // the centre's copies (kept apart, as the centre itself), each for a third of its nine comparisons: no one
     // register reaches every comparison's parts
     val centreCopies = Seq.fill(3)(keptApart(RegNextWhen(cols(0)(1), shift)))
-    def centreFor(comparison: Int): UInt = centreCopies(comparison * centreCopies.size / 9)
+    // the threshold's comparison first, then the neighbours'
+    val comparisons = 1 + earlier.size + later.size
+    def centreFor(comparison: Int): UInt = centreCopies(comparison * centreCopies.size / comparisons)
     val p = n(PIXEL)
     // The geometry registers only change at a start of frame that follows a good frame of the same geometry,
     // so beats still in flight from the previous frame see the right values.
@@ -333,7 +335,7 @@ class HarrisDetector(f: FrameConfig, h: HarrisConfig, columnRows: Int, stages: H
     val COMPARED = n.insert(
       Vec(Seq(parts(centreFor(0), control.threshold.resize(h.scoreWidth), orEqual = false)) ++
         earlier.zipWithIndex.map { case (e, i) => parts(centreFor(1 + i), e, orEqual = false) } ++
-        later.zipWithIndex.map { case (l, i) => parts(centreFor(5 + i), l, orEqual = true) })
+        later.zipWithIndex.map { case (l, i) => parts(centreFor(1 + earlier.size + i), l, orEqual = true) })
     )
     val CENTRE = n.insert(centre)
     val c = at(stages.combine)
