@@ -3,177 +3,202 @@ package orb
 import spinal.core._
 import spinal.lib._
 import orb.Pipes.keptApart
-import spinal.lib.misc.pipeline._
 
-/** The orientation bin of (m10, m01) without a divider, as `orb.model.OrbModel.angleBin`: fold into the first
-  * octant (signs, swap so that b <= a), count the bin boundaries below the angle with a binary search, one
-  * comparison b 2^F >= a T_j per step, unfold. One corner per clock; latency `4 steps + 5`: a step multiplies a's
-  * two parts by the tangent it tries in two multiplier blocks (plain registers on both sides of each product; the
-  * tangent picked from the two the step before looked up), adds the partial products and compares. */
-class AngleSearch(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) extends Component {
+/** A corner's moments with whatever travels beside them. */
+case class AngleQuery[T <: Data](itemType: HardType[T]) extends Bundle {
+  val item = itemType()
+  val m10, m01 = SInt(OrientationUnit.momentWidth bits)
+}
+
+/** The item with its orientation bin. */
+case class AngleFound[T <: Data](itemType: HardType[T], d: OrbDescriptorConfig) extends Bundle {
+  val item = itemType()
+  val bin = UInt(d.binWidth bits)
+}
+
+/** What the search is doing: waiting for a corner, folding its moments into the first octant, comparing against
+  * the boundaries' tangents, unfolding the count into the bin, holding the result for the consumer. */
+object AngleSearchState extends SpinalEnum {
+  val IDLE, FOLD, SEARCH, UNFOLD, FULL = newElement()
+}
+
+/** The orientation bin of (m10, m01) without a divider, as `orb.model.OrbModel.angleBin`, one corner at a time:
+  * fold into the first octant (signs, swap so that b <= a), count the bin boundaries below the angle with a binary
+  * search, one comparison b 2^F >= a T_j per step, unfold. A step takes five clocks: the index it tries into a
+  * register, its tangent looked up into the multipliers' input register, a's two parts times the tangent into the
+  * products' registers, their sum, the comparison. The data path runs every clock (no enables on the multipliers'
+  * registers); only the count and the step move, once a step. `AngleSearch.clocks` from a corner's acceptance to
+  * the next: far fewer than a descriptor takes, so the search at the descriptor unit's queue never holds the engine
+  * up. */
+class AngleSearch[T <: Data](itemType: HardType[T], d: OrbDescriptorConfig) extends Component {
+  import AngleSearch._
   val io = new Bundle {
-    val input = slave Flow (OrientedCorner(f, h, d))
-    val output = master Flow (OrientedCorner(f, h, d))
+    val input = slave Stream (AngleQuery(itemType))
+    val output = master Stream (AngleFound(itemType, d))
   }
   val momentWidth = OrientationUnit.momentWidth
   val m = d.binsPerOctant
   val tangents = d.boundaryTangents
-  val steps = Iterator.iterate(1)(_ * 2).takeWhile(_ <= m).toSeq.reverse // m, m/2, .., 1 when m is a power of 2
+  val steps = stepsOf(d)
   val tWidth = log2Up(tangents.max + 1)
   val countWidth = log2Up(m + 1)
 
   /** a = hi 2^L + lo: lo fills a multiplier's operand, and so does the tangent */
   val loWidth = Arith.multiplierWidth
   require(tWidth <= Arith.multiplierWidth && momentWidth - loWidth <= Arith.multiplierWidth)
-  // the stages: `at(i)` is the beat i clocks after the input, a register between each
-  val pipeline = new StagePipeline
-  def at(i: Int): Node = pipeline.node(i)
-
-  val IN = Payload(OrientedCorner(f, h, d))
-  at(0).driveFrom(io.input)((n, p) => n(IN) := p)
-  // Beside the search travel the corner and its tags, not its moments: they are rebuilt at the end from the
-  // magnitudes the search carries anyway and their signs.
-  val beside = new Area {
-    val n = at(0)
-    val CORNER = n.insert(n(IN).corner)
-    val ROW_TAG = n.insert(n(IN).rowTag)
-    val FRAME_TAG = n.insert(n(IN).frameTag)
-    val KEYFRAME = n.insert(n(IN).keyframe)
-    val END = n.insert(n(IN).end)
-    val M10_NEGATIVE = n.insert(n(IN).m10.sign)
-    val M01_NEGATIVE = n.insert(n(IN).m01.sign)
-  }
-
-  // the magnitudes at node 0, their comparison at node 1, the swap it decides at node 2 (a register between them)
-  val fold = new Area {
-    val AX = at(0).insert(at(0)(IN).m10.abs)
-    val AY = at(0).insert(at(0)(IN).m01.abs)
-    val SWAP = at(1).insert(at(1)(AY) > at(1)(AX))
-    val n = at(2)
-    val A = n.insert(Mux(n(SWAP), n(AY), n(AX)))
-    val B = n.insert(Mux(n(SWAP), n(AX), n(AY)))
-  }
-
-  /** the node of the first step's multiplier input */
-  val first = 3
   val fracBits = d.tanFracBits
 
-  /** Step `i`'s tangent for a count of the steps before it: `before` is a sum of larger steps (powers of two), a
-    * multiple of 2 step, so the index it tries, before + step - 1, is looked up by before / step in a table of the
-    * step's own indices (no adder before the lookup). An index past the octant is never tried (`inRange`); its entry
-    * repeats the one without the quotient's top bit, so that (m a power of two) the table does not depend on that
-    * bit: no entry forced to 0 by it, which synthesis would make a reset of the multipliers' input register. */
-  case class StepTable(i: Int) {
-    val step = steps(i)
-    val shift = log2Up(step)
-    val quotientWidth = countWidth - shift
-    def tried(q: Int): Int = q * step + step - 1
-    val half = 1 << (quotientWidth - 1)
-    def entry(q: Int): Long =
-      if (tried(q) < m) tangents(tried(q)) else if (q >= half && tried(q - half) < m) tangents(tried(q - half)) else 0L
-    def quotient(before: UInt): UInt = before(countWidth - 1 downto shift)
-    def tangent(before: UInt): UInt =
-      Vec((0 until (1 << quotientWidth)).map(q => U(entry(q), tWidth bits)))(quotient(before))
-    def inRange(before: UInt): Bool = Vec((0 until (1 << quotientWidth)).map(q => Bool(tried(q) < m)))(quotient(before))
+  val state = RegInit(AngleSearchState.IDLE)
+  val item = Reg(itemType())
+  val m10, m01 = Reg(SInt(momentWidth bits))
+  io.input.ready := state === AngleSearchState.IDLE
+  when(io.input.fire) {
+    item := io.input.item
+    m10 := io.input.m10
+    m01 := io.input.m01
   }
-  val tables = steps.indices.map(StepTable)
 
-  // Step i tries to add its step to the count of the steps before it: its tangent enters the multipliers' input
-  // registers at node first + 4i, the partial products of a and T_j come a node later, their sum the node after, the
-  // comparison the next. The next step's two possible tangents (for this step's bit clear or set) are looked up from
-  // the count before this step while it compares, into registers: the bit only picks one of them.
-  val counts = scala.collection.mutable.ArrayBuffer[Payload[UInt]]()
-  val candidates = scala.collection.mutable.ArrayBuffer[(Payload[UInt], Payload[UInt])]()
-  for (i <- steps.indices) {
-    val table = tables(i)
-    val n = at(first + 4 * i)
-    val before = if (i == 0) U(0, countWidth bits) else n(counts(i - 1))
-    val BEFORE = n.insert(before)
-    val TRY = n.insert(table.inRange(before) && n(fold.A) =/= 0)
-    val lookedUp =
-      if (i == 0) table.tangent(before)
-      else {
-        val (without, withBit) = candidates(i - 1)
-        Mux(before(tables(i - 1).shift), n(withBit), n(without))
-      }
-    val p = at(first + 4 * i + 1)
-    // a's and T_j's copies that feed only the multipliers (their input registers): loaded with the step's valid
-    // and kept apart, so that neither is merged with a twin (the pipeline's register of a, a bit of T_j equal to
-    // one of `before`) that feeds more than multipliers
-    val aForProducts = keptApart(RegNextWhen(n(fold.A), n.isValid))
-    val tangent = keptApart(RegNextWhen(lookedUp, n.isValid))
-    val LO = p.insert(aForProducts(loWidth - 1 downto 0) * tangent)
-    val HI = p.insert(aForProducts(momentWidth - 1 downto loWidth) * tangent)
+  // The fold, registers behind the moments' (which hold while the corner is searched): the magnitudes, their
+  // comparison, the swap it decides, each a clock later; `foldClocks` clocks in all.
+  val fold = new Area {
+    val ax = RegNext(m10.abs)
+    val ay = RegNext(m01.abs)
+    val negative10 = RegNext(m10.sign)
+    val negative01 = RegNext(m01.sign)
+    val swap = RegNext(ay > ax)
+    val a = RegNext(Mux(swap, ay, ax))
+    val b = RegNext(Mux(swap, ax, ay))
+    val aNonZero = RegNext(Mux(swap, ay, ax) =/= 0)
+  }
+
+  /** the clocks of an activity that lasts more than one */
+  val clock = Reg(UInt(log2Up(foldClocks max clocksPerStep) bits))
+
+  // The search: `count` holds the boundaries below the angle found so far (a sum of the steps taken, larger steps
+  // first), `step` the step being tried (one-hot) and `below` step - 1: the index tried is count + step - 1, which,
+  // count being a multiple of 2 step, is count | below (no adder before the lookup).
+  val search = new Area {
+    val count = Reg(UInt(countWidth bits))
+    val step = Reg(UInt(countWidth bits))
+    val below = Reg(UInt(countWidth bits))
+    val tried = count | below
+
+    /** An index past the octant is never tried (`inRange`); its entry repeats the one without the index's top bit,
+      * so that no entry is forced to 0 by that bit, which synthesis would make a reset of the multipliers' input
+      * register. */
+    def entry(j: Int): Long = if (j < m) tangents(j) else tangents(j % (1 << (countWidth - 1)) min (m - 1))
+    val table = Vec((0 until (1 << countWidth)).map(j => U(entry(j), tWidth bits)))
+    val index = RegNext(tried)
+    // a's copy and the tangent feed only the multipliers (their input registers), kept apart so that neither is
+    // merged with a twin that feeds more than multipliers
+    val aForProducts = keptApart(RegNext(fold.a))
+    val tangent = keptApart(RegNext(table(index)))
+    val trying = RegNext(index < m && fold.aNonZero)
+    val lo = RegNext(aForProducts(loWidth - 1 downto 0) * tangent)
+    val hi = RegNext(aForProducts(momentWidth - 1 downto loWidth) * tangent)
     // b 2^F >= a T_j = P exactly when b >= ceil(P / 2^F): the sum forms P / 2^F and whether P has a fraction, so
     // that the comparison is as wide as b, not as P
-    val s = at(first + 4 * i + 2)
-    val (whole, fraction) =
+    val (wholeNow, fractionNow) =
       if (fracBits <= loWidth) {
-        val w = (s(HI).getWidth + loWidth - fracBits) max (s(LO).getWidth - fracBits)
-        val lo = s(LO)
-        val sum = (s(HI) << (loWidth - fracBits)).resize(w + 1) + lo(lo.getWidth - 1 downto fracBits).resize(w + 1)
+        val w = (hi.getWidth + loWidth - fracBits) max (lo.getWidth - fracBits)
+        val sum = (hi << (loWidth - fracBits)).resize(w + 1) + lo(lo.getWidth - 1 downto fracBits).resize(w + 1)
         (sum, lo(fracBits - 1 downto 0) =/= 0)
       } else {
-        val product = (s(HI) << loWidth).resize(momentWidth + tWidth) + s(LO).resize(momentWidth + tWidth)
+        val product = (hi << loWidth).resize(momentWidth + tWidth) + lo.resize(momentWidth + tWidth)
         (product(product.getWidth - 1 downto fracBits), product(fracBits - 1 downto 0) =/= 0)
       }
-    val WHOLE = s.insert(whole)
-    val FRACTION = s.insert(fraction)
-    val c = at(first + 4 * i + 3)
+    val whole = RegNext(wholeNow)
+    val fraction = RegNext(fractionNow)
     // b >= whole + fraction, as 2b + 1 > 2 whole + fraction: one comparison
-    val cw = (momentWidth max c(WHOLE).getWidth) + 1
-    val take = c(TRY) && ((c(fold.B).resize(cw - 1) @@ True) > (c(WHOLE).resize(cw - 1) @@ c(FRACTION)))
-    // `before` is a multiple of 2 step: adding the step sets its bit (no carry, no adder after the comparison)
-    counts += c.insert(c(BEFORE) | (take.asUInt << table.shift).resize(countWidth))
-    if (i + 1 < steps.size) {
-      val next = tables(i + 1)
-      val withBit = c(BEFORE) | U(table.step, countWidth bits)
-      candidates += ((c.insert(next.tangent(c(BEFORE))), c.insert(next.tangent(withBit))))
-    }
+    val cw = (momentWidth max whole.getWidth) + 1
+    val takes = trying && ((fold.b.resize(cw - 1) @@ True) > (whole.resize(cw - 1) @@ fraction))
+    val lastStep = step.lsb
   }
+
   // The count unfolded over the octant's swap and the quadrant's signs: the bin is offset +- count, the offset and
-  // the sign decided from the swap and the signs nodes ahead, so the unfolding is one adder.
+  // the sign decided as the fold ends, so the unfolding is one adder.
   // With Q = swap ? 2m - count : count, the quadrants give Q, n/2 - Q, n/2 + Q and n - Q (0 for Q = 0).
   val unfold = new Area {
     val n = d.angleBins
     val bw = d.binWidth
-    val early = at(2)
-    val right = !early(beside.M10_NEGATIVE)
-    val up = !early(beside.M01_NEGATIVE)
-
+    val right = !fold.negative10
+    val up = !fold.negative01
     // the quadrant's base, and whether Q is subtracted from it
     val base = Mux(right, Mux(up, U(0, bw + 1 bits), U(n, bw + 1 bits)), U(n / 2, bw + 1 bits))
     val qSubtracted = right =/= up
     // base + Q or base - Q; Q = 2m - count after a swap: the offset takes 2m in Q's sign, the count the other one
-    val OFFSET = early.insert(
-      Mux(early(fold.SWAP), Mux(qSubtracted, base - d.binsPerQuadrant, base + d.binsPerQuadrant), base)
+    val offset = RegNext(
+      Mux(fold.swap, Mux(qSubtracted, base - d.binsPerQuadrant, base + d.binsPerQuadrant), base)
     )
-    val SUBTRACT = early.insert(qSubtracted =/= early(fold.SWAP))
-    val swapped = at(first + 4 * steps.size)
-    val count = swapped(counts.last).resize(bw + 1)
-    val sum = Mux(swapped(SUBTRACT), swapped(OFFSET) - count, swapped(OFFSET) + count)
+    val subtract = RegNext(qSubtracted =/= fold.swap)
+    val count = search.count.resize(bw + 1)
+    val sum = Mux(subtract, offset - count, offset + count)
     // the sum lies in [0, n]; n (the fourth quadrant's n - 0) is bin 0 (a power of two wraps by itself)
-    val BIN = swapped.insert(if (isPow2(n)) sum.resize(bw) else Mux(sum === n, U(0, bw bits), sum.resize(bw)))
-    // |m10| is a, or b after a swap; |m01| the other: picked here, so that the next node only signs them
-    val ABS10 = swapped.insert(Mux(swapped(fold.SWAP), swapped(fold.B), swapped(fold.A)))
-    val ABS01 = swapped.insert(Mux(swapped(fold.SWAP), swapped(fold.A), swapped(fold.B)))
-    val u = at(first + 4 * steps.size + 1)
-    def moment(magnitude: UInt, negative: Bool): SInt = {
-      val m = magnitude.intoSInt.resize(momentWidth)
-      Mux(negative, -m, m)
-    }
-    val M10 = u.insert(moment(u(ABS10), u(beside.M10_NEGATIVE)))
-    val M01 = u.insert(moment(u(ABS01), u(beside.M01_NEGATIVE)))
+    val bin = Reg(UInt(bw bits))
   }
-  val out = at(first + 4 * steps.size + 2)
-  io.output.valid := out.isValid
-  io.output.corner := out(beside.CORNER)
-  io.output.m10 := out(unfold.M10)
-  io.output.m01 := out(unfold.M01)
-  io.output.rowTag := out(beside.ROW_TAG)
-  io.output.frameTag := out(beside.FRAME_TAG)
-  io.output.keyframe := out(beside.KEYFRAME)
-  io.output.end := out(beside.END)
-  io.output.bin := out(unfold.BIN)
-  pipeline.build()
+
+  switch(state) {
+    is(AngleSearchState.IDLE) {
+      clock := 0
+      when(io.input.valid) {
+        state := AngleSearchState.FOLD
+      }
+    }
+    is(AngleSearchState.FOLD) {
+      clock := clock + 1
+      when(clock === foldClocks - 1) {
+        clock := 0
+        search.count := 0
+        search.step := U(steps.head, countWidth bits)
+        search.below := U(steps.head - 1, countWidth bits)
+        state := AngleSearchState.SEARCH
+      }
+    }
+    is(AngleSearchState.SEARCH) {
+      clock := clock + 1
+      when(clock === clocksPerStep - 1) {
+        clock := 0
+        // count is a multiple of 2 step: taking the step sets its bit (no carry)
+        when(search.takes) {
+          search.count := search.count | search.step
+        }
+        search.step := search.step |>> 1
+        search.below := search.below |>> 1
+        when(search.lastStep) {
+          state := AngleSearchState.UNFOLD
+        }
+      }
+    }
+    is(AngleSearchState.UNFOLD) {
+      unfold.bin := (if (isPow2(unfold.n)) unfold.sum.resize(unfold.bw)
+                     else Mux(unfold.sum === unfold.n, U(0, unfold.bw bits), unfold.sum.resize(unfold.bw)))
+      state := AngleSearchState.FULL
+    }
+    is(AngleSearchState.FULL) {
+      when(io.output.ready) {
+        state := AngleSearchState.IDLE
+      }
+    }
+  }
+  io.output.valid := state === AngleSearchState.FULL
+  io.output.item := item
+  io.output.bin := unfold.bin
+}
+
+object AngleSearch {
+
+  /** the fold's registers behind the moments' */
+  val foldClocks: Int = 3
+
+  /** a step's clocks: the index, the lookup, the products, their sum, the comparison */
+  val clocksPerStep: Int = 5
+
+  /** the steps tried, largest first: m, m/2, .., 1 for m = binsPerOctant a power of two (else from the largest power
+    * of two below m; an index past the octant is never taken) */
+  def stepsOf(d: OrbDescriptorConfig): Seq[Int] =
+    Iterator.iterate(1)(_ * 2).takeWhile(_ <= d.binsPerOctant).toSeq.reverse
+
+  /** clocks from a corner's acceptance to the next acceptance when the consumer takes the result at once: the
+    * acceptance, the fold, the steps, the unfolding, the result's clock */
+  def clocks(d: OrbDescriptorConfig): Int = 1 + foldClocks + clocksPerStep * stepsOf(d).size + 1 + 1
 }

@@ -283,7 +283,7 @@ case class OrbDescriptorConfig(
     tanFracBits: Int = 18,
     rotationFracBits: Int = 16,
     cornerQueueDepth: Int = 64,
-    slackRows: Int = 8,
+    slackRows: Int = 7,
     readyQueueDepth: Int = 128
 ) {
   require(angleBins >= 8 && angleBins % 8 == 0, "angleBins must be a multiple of 8")
@@ -444,8 +444,11 @@ object MatcherConfig {
     * less than in halves. */
   val scoreParts: Int = 3
 
-  /** Parts of a lane's copy of the live descriptor, each loaded by its own copy of the idle flag. */
+  /** Parts of a copy of the live descriptor, each loaded by its own copy of the idle flag. */
   val liveDescriptorParts: Int = 8
+
+  /** Lanes that share a copy of the live descriptor (a pair: the copies are flip-flops alone in their LEs). */
+  val lanesPerLiveCopy: Int = 2
 
   /** The popcount adds the counts of 8-bit chunks in a binary tree. */
   val chunkBits: Int = 8
@@ -539,6 +542,12 @@ case class OrbConfig(
     * feature replacing a weaker entry takes less. */
   def clocksPerFeature: Int =
     matcher.clocksPerFeature max (DescriptorUnit.fetchClocks(descriptor) + DescriptorUnit.dispatchClocks)
+  // The bin's search at the ready queue's head prepares the next corner while the engine fetches the one before
+  // (a group of tests per clock at the fastest), so the dispatch waits for it no longer than `windowClocks` counts.
+  require(
+    DescriptorUnit.headClocks(descriptor) <= orb.model.DescriptorSchedule.groups,
+    "the angle search must find a bin faster than the engine takes corners"
+  )
 
   /** The latest the last of `n` corners released together into an idle descriptor unit has its descriptor, in
     * clocks after their release. One engine with two slots: it starts a corner `DescriptorUnit.dispatchClocks` after
@@ -600,7 +609,14 @@ case class OrbConfig(
     val gapRows = harris.border + OrbDescriptorConfig.startRowOffset + 1 - slack
     val between = if (matcher.frameEndClocks + 2L * s + tDesc < gapRows.toLong * w) None
     else Some(s"W = $w: the matcher's end of frame does not fit between two frames' corners")
-    (windows ++ steady.iterator ++ emission.iterator ++ between.iterator).nextOption()
+    // A frame that ended early leaves its queued corners to be refused when the next frame starts, one per angle
+    // search (`DescriptorUnit.headClocks`): all of them before that frame's first corner is due.
+    val queued = perBand * bandsQueued(OrbDescriptorConfig.patchRadius, OrbDescriptorConfig.startRowOffset + slack)
+    val firstDue = (harris.border + OrbDescriptorConfig.startRowOffset).toLong * w
+    val refusals =
+      if (queued * DescriptorUnit.headClocks(descriptor) < firstDue) None
+      else Some(s"W = $w: $queued corners of a frame that ended early are not refused before the next frame's are due")
+    (windows ++ steady.iterator ++ emission.iterator ++ between.iterator ++ refusals.iterator).nextOption()
   }
 
   /** Corners kept per cell in lines of `w` pixels: `perCell`, or fewer where the lines are too short for the engines

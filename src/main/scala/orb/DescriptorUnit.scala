@@ -43,7 +43,7 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
   import OrbDescriptorConfig.{blurRadius, sampleReach}
   val io = new Bundle {
     val smoothed = slave Flow (SmoothedPixel(f))
-    val corners = slave Flow (OrientedCorner(f, h, d))
+    val corners = slave Flow (OrientedCorner(f, h))
     val features = master Stream (FeatureHw(f, h, d))
     val dropped = out(f.counter())
   }
@@ -157,12 +157,21 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
     }
   }
 
-  /** An oriented corner as it waits for the engine: without its moments, which only the bin needed. */
+  /** What of an oriented corner waits for the engine beside its moments, then its bin. */
+  case class Waiting() extends Bundle {
+    val corner = CornerHw(f, h)
+
+    /** the row whose start means the corner's 37 smoothed rows are complete: its own row + `startRowOffset` */
+    val startRow = f.rowTag()
+    val frameTag = f.frameTag()
+    val keyframe = Bool()
+    val end = FrameEndMark()
+  }
+
+  /** An oriented corner at the queue's head, with its bin and without its moments, which only the bin needed. */
   case class ReadyCorner() extends Bundle {
     val corner = CornerHw(f, h)
     val bin = UInt(d.binWidth bits)
-
-    /** the row whose start means the corner's 37 smoothed rows are complete: its own row + `startRowOffset` */
     val startRow = f.rowTag()
     val frameTag = f.frameTag()
     val keyframe = Bool()
@@ -180,12 +189,18 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
     val item = ReadyCorner()
     val rotation = Rotation()
   }
-  // drained an engine's run apart: its RAM's read enables wait for no readiness (`SettledFifo`)
-  val ready = new SettledFifo(ReadyCorner(), d.readyQueueDepth)
+  // drained an engine's run apart: its RAM's read enables wait for no readiness (`SettledFifo`). The corners wait
+  // with their moments; the head's bin is searched for as it leaves (one corner at a time, far faster than the
+  // engine), so no pipeline carries the corners beside a search.
+  val ready = new SettledFifo(AngleQuery(Waiting()), d.readyQueueDepth)
   ready.io.push.valid := io.corners.valid
-  ready.io.push.payload.assignSomeByName(io.corners.payload)
-  ready.io.push.payload.startRow := io.corners.rowTag + OrbDescriptorConfig.startRowOffset
+  ready.io.push.item.assignSomeByName(io.corners.payload)
+  ready.io.push.item.startRow := io.corners.rowTag + OrbDescriptorConfig.startRowOffset
+  ready.io.push.m10 := io.corners.m10
+  ready.io.push.m01 := io.corners.m01
   val queueDrop = io.corners.valid && !ready.io.push.ready
+  val search = new AngleSearch(Waiting(), d)
+  search.io.input << ready.io.pop
 
   /** cos and sin of a bin from a quarter of the table (`OrbDescriptorConfig.cosSin`): the magnitudes of the bin
     * within its quadrant (sin read from the table backwards: no subtraction), in three registered steps (each
@@ -199,20 +214,19 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
     DescriptorUnit.tableParts
   )
 
-  /** A ready corner with a copy of its bin's index within the quadrant per part of the cos/sin tables (kept apart):
-    * no one register drives every part's lookup. */
-  case class IndexedCorner() extends Bundle {
-    val item = ReadyCorner()
+  /** A bin with a copy of its index within the quadrant per part of the cos/sin tables (kept apart): no one
+    * register drives every part's lookup. */
+  case class IndexedBin() extends Bundle {
+    val quadrant = UInt(2 bits)
     val within = Vec(UInt(quarterIndexWidth bits), DescriptorUnit.tableParts)
   }
-  def indexed(r: ReadyCorner): IndexedCorner = {
-    val o = IndexedCorner()
-    o.item := r
-    o.within.foreach(_ := r.bin.resize(quarterIndexWidth))
+  def indexed(bin: UInt): IndexedBin = {
+    val o = IndexedBin()
+    o.quadrant := bin(d.binWidth - 1 downto d.binWidth - 2)
+    o.within.foreach(_ := bin.resize(quarterIndexWidth))
     o
   }
   case class CosSinLookup() extends Bundle {
-    val item = ReadyCorner()
     val quadrant = UInt(2 bits)
     val cosWords, sinWords = Vec(UInt(magnitudeWidth bits), DescriptorUnit.tableParts)
 
@@ -220,10 +234,9 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
       * four halves */
     val cosParts, sinParts = Vec(UInt(log2Up(DescriptorUnit.tableParts) bits), 2)
   }
-  def lookupCosSin(i: IndexedCorner): CosSinLookup = {
+  def lookupCosSin(i: IndexedBin): CosSinLookup = {
     val o = CosSinLookup()
-    o.item := i.item
-    o.quadrant := i.item.bin(d.binWidth - 1 downto d.binWidth - 2)
+    o.quadrant := i.quadrant
     o.cosWords := cosTable.wordsEach(i.within.toSeq)
     o.sinWords := sinTable.wordsEach(i.within.toSeq)
     // the half u of a table is read with the index copies u * parts / 2 onwards: its part from the first two
@@ -238,14 +251,12 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
   /** the bin's magnitudes within its quadrant, each half of the parts narrowed to its word (`SplitTable.halves`),
     * and the part's top bit, which picks the half */
   case class CosSinNarrowed() extends Bundle {
-    val item = ReadyCorner()
     val quadrant = UInt(2 bits)
     val cosPair, sinPair = Vec(UInt(magnitudeWidth bits), 2)
     val upper = Bool()
   }
   def narrowCosSin(l: CosSinLookup): CosSinNarrowed = {
     val o = CosSinNarrowed()
-    o.item := l.item
     o.quadrant := l.quadrant
     o.cosPair := cosTable.halves(l.cosWords, l.cosParts.toSeq)
     o.sinPair := sinTable.halves(l.sinWords, l.sinParts.toSeq)
@@ -255,17 +266,38 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
 
   /** the part picked, then the quadrant's swap, quadrant 0: (c, s), 1: (-s, c), 2: (-c, -s), 3: (s, -c) (both on
     * registers: one 4-way choice per bit) */
-  def prepare(l: CosSinNarrowed): PreparedCorner = {
-    val o = PreparedCorner()
+  def rotationOf(l: CosSinNarrowed): Rotation = {
+    val o = Rotation()
     val odd = l.quadrant.lsb
     val c = cosTable.pickHalf(l.cosPair, l.upper)
     val s = sinTable.pickHalf(l.sinPair, l.upper)
-    o.item := l.item
-    o.rotation.cos := Mux(odd, s, c)
-    o.rotation.sin := Mux(odd, c, s)
-    o.rotation.cosNegative := l.quadrant === 1 || l.quadrant === 2
-    o.rotation.sinNegative := l.quadrant.msb
+    o.cos := Mux(odd, s, c)
+    o.sin := Mux(odd, c, s)
+    o.cosNegative := l.quadrant === 1 || l.quadrant === 2
+    o.sinNegative := l.quadrant.msb
     o
+  }
+
+  /** The search's result is the queue's head: its rotation looked up from its bin by registers that run every clock
+    * while the search holds it (no handshake between them, no copy of the corner in them), offered once they hold
+    * the head's (`rotationLatency` clocks after the search's result). One corner at a time: the next is searched for
+    * after the head leaves, far sooner than the engine can take it. */
+  val headOf = new Area {
+    val o = search.io.output
+    val bin = o.bin
+    val indexedBin = RegNext(indexed(bin))
+    indexedBin.within.foreach(keptApart(_))
+    val lookedUp = RegNext(lookupCosSin(indexedBin))
+    val narrowed = RegNext(narrowCosSin(lookedUp))
+    val rotation = RegNext(rotationOf(narrowed))
+    val head = Stream(PreparedCorner())
+    // the result held (and not taken) in each of the last `rotationLatency` clocks: the registers hold its
+    val waited = History(o.valid && !head.fire, 1 to DescriptorUnit.rotationLatency, init = False)
+    head.valid := o.valid && waited.reduce(_ && _)
+    head.item.assignSomeByName(o.item)
+    head.item.bin := bin
+    head.rotation := rotation
+    o.ready := head.fire
   }
 
   /** The oldest slot's feature or a frame's end, offered to the output register (`leaving`). */
@@ -277,15 +309,9 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
     * patch was complete and the tests on them (early, late, the rows' data good) are registered first, the decision
     * on them next, and the head starts a clock later unless it changed or a row starts in between. */
   val dispatch = new Area {
-    // the queue's RAM through its output register and a register behind it, then a register beside the lookups (the
-    // RAM lies apart from them; its readiness from two registers: no decision reaches the read pointer), the
-    // lookups, the parts narrowed to two, the pick with the quadrant's swap, each step with its valid and ready
-    // registered (no chain of readies from the decision back to the queue): a step passes a corner every other
-    // clock, and corners are an engine's run apart
-    val indexedHead = Pipes.halfPipe(ready.io.pop.map(indexed), kept = (c: IndexedCorner) => c.within.toSeq)
-    val lookedUp = Pipes.halfPipe(indexedHead.map(lookupCosSin), DescriptorUnit.lookupParts)
-    val narrowed = Pipes.halfPipe(lookedUp.map(narrowCosSin), DescriptorUnit.lookupParts)
-    val head = Pipes.halfPipe(narrowed.map(prepare), DescriptorUnit.lookupParts)
+    // the queue's RAM through its output register and a register behind it, the bin's search (its state register
+    // the queue's readiness: no decision reaches the read pointer), the rotation's lookups (`headOf`)
+    val head = headOf.head
     val c = head.payload.item
     // rows since the patch was complete (negative: not yet), for the head of the clock before: it is the head's
     // now unless the head left then or a row started since (the rows and their history then moved on)
@@ -1152,9 +1178,13 @@ object DescriptorUnit {
   /** slices of the test pattern's word (whole points each), each looked up and picked by copies of its own */
   val patternSlices: Int = 2
 
-  /** slices of each register of the dispatch's cos/sin steps (the lookup, the parts narrowed to two, the pick and
-    * swap), each loaded by its own copy of its "empty" flag */
-  val lookupParts: Int = 8
+  /** registers from the searched bin to its rotation: the index copies, the words, the parts narrowed to two, the
+    * pick and swap */
+  val rotationLatency: Int = 4
+
+  /** Clocks from the head leaving to the next head's start or refusal, at most, when the next corner waits in the
+    * queue: its bin's search (`AngleSearch.clocks`), its rotation, the dispatch's decision. */
+  def headClocks(d: OrbDescriptorConfig): Int = AngleSearch.clocks(d) + rotationLatency + dispatchClocks
 
   /** copies of the front end's `advance`, each enabling a share of its registers */
   val advanceCopies: Int = 16

@@ -416,24 +416,27 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
     case class Key() extends Bundle {
       val x, y = UInt(cw bits)
     }
+    // A copy of the live descriptor per `lanesPerLiveCopy` lanes (kept apart, beside their RAMs: one copy would
+    // drive all the lanes' comparisons across the chip), copied while the scan is idle as `scan.live` is, in parts,
+    // each by an enable from its own copy of the idle flag (no one flag drives every bit). The flag is a clock late
+    // (from the activity register, not its next value): in a scan's first clock the item register still holds the
+    // feature that started it (it loads the next one a clock later), and the first entry it meets is read clocks
+    // after that.
+    val liveCopies = (0 until (P + MatcherConfig.lanesPerLiveCopy - 1) / MatcherConfig.lanesPerLiveCopy).map { _ =>
+      val partBits = item.descriptor.getWidth / MatcherConfig.liveDescriptorParts
+      val parts = (0 until MatcherConfig.liveDescriptorParts).map { i =>
+        val idle = keptApart(RegNext(activity =/= Activity.SCAN) init True)
+        val part = keptApart(Reg(Bits(partBits bits)))
+        when(idle) {
+          part := item.descriptor(i * partBits, partBits bits)
+        }
+        part
+      }
+      Cat(parts)
+    }
     val results =
       for ((r, l) <- reads.zipWithIndex) yield new Area {
-        // the lane's own copy of the live descriptor (kept apart, beside the lane's RAMs: one copy would drive all
-        // four lanes' comparisons across the chip), copied while the scan is idle as `scan.live` is, in parts, each
-        // by an enable from its own copy of the idle flag (no one flag drives every bit). The flag is a clock late
-        // (from the activity register, not its next value): in a scan's first clock the item register still holds
-        // the feature that started it (it loads the next one a clock later), and the first entry it meets is read
-        // clocks after that.
-        val partBits = item.descriptor.getWidth / MatcherConfig.liveDescriptorParts
-        val liveParts = (0 until MatcherConfig.liveDescriptorParts).map { i =>
-          val idle = keptApart(RegNext(activity =/= Activity.SCAN) init True)
-          val part = keptApart(Reg(Bits(partBits bits)))
-          when(idle) {
-            part := item.descriptor(i * partBits, partBits bits)
-          }
-          part
-        }
-        val liveDescriptor = Cat(liveParts)
+        val liveDescriptor = liveCopies(l / MatcherConfig.lanesPerLiveCopy)
         val count = MatcherConfig.hamming(r.entry.descriptor, liveDescriptor, m.popcountLevelsPerStage)
         val old = r.cross
         val index = (group.resize(countWidth) |<< log2Up(P)) | U(l, countWidth bits)

@@ -14,8 +14,8 @@ import Arith._
   * transposed FIR chains of 31 taps that advance with the valid pixels: tap j adds the sum of its own, fixed disc
   * height h(15 - j) of the column passing it (a wire, no selection), so when column c + 15 passes, the chains hold
   * m01 = sum over the disc of v I, sum T and sum j T, from which m10 = sum u I = 15 sum T - sum j T. A selected
-  * corner (cx, cy) waits in a queue until the stream is at (cx + 15, cy + 15), takes the chains' moments there, and
-  * goes through a pipelined binary search over the bin-boundary tangents. Any number of corners of a row can be
+  * corner (cx, cy) waits in a queue until the stream is at (cx + 15, cy + 15) and takes the chains' moments there;
+  * its bin is found from them at the descriptor unit's queue (`AngleSearch`, one corner at a time). Any number of corners of a row can be
   * oriented (corners come at least two pixels apart). A corner that finds the queue full, whose last column went by
   * (its frame ended early) or whose last column is not processed (a fault before it) is dropped and counted. */
 class OrientationUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, columnRows: Int) extends Component {
@@ -25,7 +25,7 @@ class OrientationUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, c
   val io = new Bundle {
     val columns = slave Flow (LineColumn(f, columnRows))
     val corners = slave Flow (CornerHw(f, h))
-    val oriented = master Flow (OrientedCorner(f, h, d))
+    val oriented = master Flow (OrientedCorner(f, h))
     val dropped = out(f.counter())
   }
   val cw = f.coordWidth
@@ -198,7 +198,7 @@ class OrientationUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, c
   // The finished corner, a clock after its last column's beat: m10 = sum u I = R sum T - sum j T, formed in the
   // stage after.
   case class Finished() extends Bundle {
-    val oriented = OrientedCorner(f, h, d)
+    val oriented = OrientedCorner(f, h)
     val t = UInt(acc1Width bits)
     val ts = UInt(acc2Width bits)
   }
@@ -222,7 +222,6 @@ class OrientationUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, c
   o.corner := finishedCorner
   o.m01 := chains.tv(0).resize(momentWidth)
   o.m10.assignDontCare()
-  o.bin.assignDontCare()
   o.rowTag := beatD.rowTag
   o.frameTag := beatD.frameTag
   o.keyframe := beatD.keyframe
@@ -230,7 +229,7 @@ class OrientationUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, c
   finishing.t := chains.t(0).resize(acc1Width)
   finishing.ts := chains.ts(0).resize(acc2Width)
   val moments = finishing.stage().map { p =>
-    val o = OrientedCorner(f, h, d)
+    val o = OrientedCorner(f, h)
     o := p.oriented
     // R t - ts = 2^s t - t - ts (R + 1 = 2^s) = (2^s t + 1) + ~t + ~ts + 1: one carry-save step into one adder
     // (2^s t has its low bit free for the first one, the carry word for the second)
@@ -240,9 +239,7 @@ class OrientationUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, c
       carrySaveSumSigned(Seq((t |<< log2Up(R + 1)) | S(1, momentWidth bits), ~t, ~ts), momentWidth, plusOne = true)
     o
   }
-  val bins = new AngleSearch(f, h, d)
-  bins.io.input << moments.stage()
-  io.oriented << bins.io.output
+  io.oriented << moments.stage()
 
   // The clock's drops registered where they arise, summed into a register of their own, then counted (the counter
   // lags the drops by three clocks).
@@ -272,8 +269,14 @@ object OrientationUnit {
   /** sum j T over a disc, j = 0 .. 2r */
   val acc2Width: Int = log2Up(r * (2 * r + 1) * ((2 * r + 1) * 255) + 1)
 
-  /** |m10|, |m01| <= 255 * sum |u| over the disc < 2^21 */
-  val momentWidth: Int = 24
+  /** |m10| <= 255 * sum of |u| over the disc, |m01| <= 255 * sum of |v|, signed (the sums modulo 2^width on the
+    * way: only the moment itself has to fit) */
+  val momentWidth: Int = {
+    val halfWidths = (-r to r).map(v => OrbDescriptorConfig.umax(v.abs))
+    val sumU = halfWidths.map(u => u * (u + 1)).sum
+    val sumV = (-r to r).zip(halfWidths).map { case (v, u) => v.abs * (2 * u + 1) }.sum
+    log2Up(255 * (sumU max sumV) + 1) + 1
+  }
 
   /** adder levels of the column sums' prefix sums between registers: one (every column sum a register after each
     * adder; the flip-flops share the adders' logic elements) */

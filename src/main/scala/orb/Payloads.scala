@@ -56,11 +56,10 @@ case class CornerHw(c: FrameConfig, h: HarrisConfig) extends Bundle {
   val score = UInt(h.scoreWidth bits)
 }
 
-/** A corner with its intensity moments and orientation bin. */
-case class OrientedCorner(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) extends Bundle {
+/** A corner with its intensity moments (its bin is found at the descriptor unit's queue: `AngleSearch`). */
+case class OrientedCorner(f: FrameConfig, h: HarrisConfig) extends Bundle {
   val corner = CornerHw(f, h)
   val m10, m01 = SInt(OrientationUnit.momentWidth bits)
-  val bin = UInt(d.binWidth bits)
 
   /** the corner's row and frame on the stream, counted from reset (`RowClock`) */
   val rowTag = f.rowTag()

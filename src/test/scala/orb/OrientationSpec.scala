@@ -14,7 +14,7 @@ class OrientationHarness(c: OrbConfig, budgeted: Boolean = true) extends Compone
   val io = new Bundle {
     val pixels = slave Flow (PixelBeat())
     val control = in(CornerParamsHw())
-    val oriented = master Flow (OrientedCorner(c.frame, c.harris, c.descriptor))
+    val oriented = master Flow (OrientedCorner(c.frame, c.harris))
     val dropped = out UInt (32 bits)
   }
   val tracker = new FrameTracker(c.frame)
@@ -65,14 +65,13 @@ class OrientationSpec extends AnyFunSuite {
       all: Boolean = false,
       p: CornerParams = cornerParams
   ): Unit = {
-    val d = config.descriptor
     val model = CoreModel.run(config, Beat.frame(img) ++ Beat.frame(img), p)
     val selected = if (all) model.corners else model.budget.last._2.selected
     val expected = selected.map { c =>
       val (m10, m01) = OrbModel.moments(img, c.x, c.y)
-      (c.x, c.y, c.score, m10, m01, OrbModel.angleBin(m10, m01, d))
+      (c.x, c.y, c.score, m10, m01)
     }
-    val got = scala.collection.mutable.ArrayBuffer[(Int, Int, Long, Long, Long, Int)]()
+    val got = scala.collection.mutable.ArrayBuffer[(Int, Int, Long, Long, Long)]()
     var dropped = -1L
     def run(dut: OrientationDut): Unit = {
       CoreSim.idlePixels(dut.pixels)
@@ -81,7 +80,7 @@ class OrientationSpec extends AnyFunSuite {
       dut.clockDomain.onSamplings {
         val o = dut.oriented
         if (o.valid.toBoolean && !o.end.now.toBoolean)
-          got += ((o.corner.x.toInt, o.corner.y.toInt, o.corner.score.toLong, o.m10.toLong, o.m01.toLong, o.bin.toInt))
+          got += ((o.corner.x.toInt, o.corner.y.toInt, o.corner.score.toLong, o.m10.toLong, o.m01.toLong))
       }
       CoreSim.drivePixels(dut.pixels, dut.clockDomain, Beat.frame(img) ++ Beat.frame(img), blanking, rng(name))
       dut.clockDomain.waitSampling(50)
@@ -99,14 +98,15 @@ class OrientationSpec extends AnyFunSuite {
       s"$name: ${diffs.size} differ (model ${expected.size}, RTL ${got.size}); first ${diffs.take(3).mkString("; ")}"
     )
     assert(dropped == 0, s"$name: $dropped corners dropped")
-    println(s"[orb] orientation $name: ${got.size} corners, moments and bins equal to the model, none dropped")
+    println(s"[orb] orientation $name: ${got.size} corners, moments equal to the model, none dropped")
   }
 
   lazy val search = CoreSim.simConfig("simWorkspace/test").compile(
-    new AngleSearch(config.frame, config.harris, config.descriptor)
+    new AngleSearch(UInt(16 bits), config.descriptor)
   )
 
-  test("angle search == model on moments at and beside every bin boundary, all signs, both halves of the octant") {
+  test("angle search == model on moments at and beside every bin boundary, all signs, both halves of the octant, " +
+    "in order under back-pressure, a corner per AngleSearch.clocks") {
     val d = config.descriptor
     val f = d.tanFracBits
     val r = rng("angle-search")
@@ -114,7 +114,7 @@ class OrientationSpec extends AnyFunSuite {
     val boundaries = for {
       j <- d.boundaryTangents.indices
       _ <- 0 until 6
-      a = 1L + r.nextInt(1 << 21)
+      a = 1L + r.nextInt(1 << (OrientationUnit.momentWidth - 1))
       t = d.boundaryTangents(j)
       b0 = (BigInt(a) * t + (BigInt(1) << f) - 1) / (BigInt(1) << f)
       b <- Seq(b0, b0 - 1) if b >= 0 && b <= a
@@ -122,50 +122,77 @@ class OrientationSpec extends AnyFunSuite {
     // a a multiple of 2^F: b = a T_j / 2^F exactly (the product has no fraction)
     val exact = for {
       j <- d.boundaryTangents.indices by 7
-      k <- 1 until (1 << (21 - f))
+      k <- 1 until (1 << (OrientationUnit.momentWidth - 1 - f))
       a = k.toLong << f
       b <- Seq(k * d.boundaryTangents(j), k * d.boundaryTangents(j) - 1)
     } yield (a, b)
-    val random = Seq.fill(400)((r.nextInt(1 << 21).toLong, r.nextInt(1 << 21).toLong)) ++
-      Seq((0L, 0L), (1L, 0L), (0L, 1L), (1L, 1L), ((1L << 21) - 1, (1L << 21) - 1))
+    val top = 1 << (OrientationUnit.momentWidth - 1)
+    val random = Seq.fill(400)((r.nextInt(top).toLong, r.nextInt(top).toLong)) ++
+      Seq((0L, 0L), (1L, 0L), (0L, 1L), (1L, 1L), (top - 1L, top - 1L))
     val pairs = (boundaries ++ exact ++ random.map { case (a, b) => (a max b, a min b) }).flatMap { case (a, b) =>
       val signs = Seq((1, 1), (-1, 1), (-1, -1), (1, -1))
       signs.flatMap { case (sx, sy) => Seq((sx * a, sy * b), (sx * b, sy * a)) }
     }
-    val expected = pairs.map { case (m10, m01) => (m10, m01, OrbModel.angleBin(m10, m01, d)) }
-    val got = scala.collection.mutable.ArrayBuffer[(Long, Long, Int)]()
+    val expected = pairs.zipWithIndex.map { case ((m10, m01), i) => (i & 0xffff, OrbModel.angleBin(m10, m01, d)) }
+    val got = scala.collection.mutable.ArrayBuffer[(Int, Int)]()
+    var steadyClocks = 0L
     search.doSim("angle-search", seed.toInt) { dut =>
-      dut.io.input.valid #= false
-      dut.io.input.payload.randomize()
-      dut.io.input.end.now #= false
+      val in = dut.io.input
+      in.valid #= false
+      in.item #= 0
+      in.m10 #= 0
+      in.m01 #= 0
+      dut.io.output.ready #= false
       dut.clockDomain.forkStimulus(10)
       dut.clockDomain.waitSampling(4)
+      var clocks = 0L
+      var pressure = true
       dut.clockDomain.onSamplings {
+        clocks += 1
         val o = dut.io.output
-        if (o.valid.toBoolean) got += ((o.m10.toLong, o.m01.toLong, o.bin.toInt))
+        if (o.valid.toBoolean && o.ready.toBoolean) got += ((o.item.toInt, o.bin.toInt))
+        // the consumer waits now and then
+        o.ready #= !pressure || r.nextInt(4) != 0
       }
-      for ((m10, m01) <- pairs) {
-        dut.io.input.valid #= true
-        dut.io.input.m10 #= m10
-        dut.io.input.m01 #= m01
-        dut.clockDomain.waitSampling()
-        if (r.nextInt(5) == 0) {
-          dut.io.input.valid #= false
-          dut.clockDomain.waitSampling(r.nextInt(3) + 1)
-        }
+      def offer(i: Int): Unit = {
+        val (m10, m01) = pairs(i)
+        in.valid #= true
+        in.item #= i & 0xffff
+        in.m10 #= m10
+        in.m01 #= m01
+        dut.clockDomain.waitSamplingWhere(in.ready.toBoolean)
+        in.valid #= false
       }
-      dut.io.input.valid #= false
-      dut.clockDomain.waitSampling(60)
+      // a corner offered now and then, under back-pressure
+      for (i <- pairs.indices.drop(16)) {
+        offer(i)
+        if (r.nextInt(5) == 0) dut.clockDomain.waitSampling(r.nextInt(40) + 1)
+      }
+      dut.clockDomain.waitSampling(100)
+      // the first 16 back to back with the consumer always ready: a corner per AngleSearch.clocks
+      pressure = false
+      dut.clockDomain.waitSampling(2)
+      val from = clocks
+      for (i <- 0 until 16) offer(i)
+      dut.clockDomain.waitSamplingWhere(got.size == pairs.size)
+      steadyClocks = clocks - from
     }
-    val diffs = expected.zipAll(got, null, null).filter { case (a, b) => a != b }
-    if (diffs.nonEmpty) fail(s"${diffs.size} of ${expected.size} differ; first ${diffs.take(3).mkString("; ")}")
+    val order = pairs.indices.drop(16) ++ (0 until 16)
+    val diffs = order.map(expected).zipAll(got, null, null).filter { case (a, b) => a != b }
+    if (diffs.nonEmpty)
+      fail(s"${diffs.size} of ${expected.size} differ (tag, bin); first ${diffs.take(3).mkString("; ")}")
+    val per = AngleSearch.clocks(d)
+    assert(
+      steadyClocks >= 16L * per - per && steadyClocks <= 16L * per + 2,
+      s"16 corners back to back took $steadyClocks clocks, not about 16 x $per"
+    )
     val atBoundaries = boundaries.size + exact.size
     println(
       s"[orb] angle search: ${got.size} moment pairs ($atBoundaries at or beside a boundary, all 8 octants) == model"
     )
   }
 
-  test("moments and angle bins == model, in raster order, none lost") {
+  test("moments == model, in raster order, none lost") {
     check("orient-boxes", Patterns.boxes(120, 90, rng("orient"), n = 20), Blanking.random)
     check("orient-graf1", image("graf1.png").crop(100, 100, 320, 200), Blanking.camera)
   }

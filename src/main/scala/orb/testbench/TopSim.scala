@@ -29,8 +29,8 @@ final case class TopResult(
   * correspondences with optional random back-pressure. */
 object TopSim {
 
-  /** A corner after the orientation unit: moments and bin. */
-  final case class Oriented(x: Int, y: Int, m10: Long, m01: Long, bin: Int)
+  /** A corner after the orientation unit: its moments (its bin comes with its feature). */
+  final case class Oriented(x: Int, y: Int, m10: Long, m01: Long)
 
   /** A live feature's scan as the matcher decided it: best entry (store index, position), distance, second best. */
   final case class Scan(liveX: Int, liveY: Int, bestIndex: Int, keyX: Int, keyY: Int, best: Int, second: Int)
@@ -93,7 +93,7 @@ object TopSim {
       if (c.valid.toBoolean) corners += Corner(c.x.toInt, c.y.toInt, c.score.toLong)
       val o = dut.core.orientation.io.oriented
       if (o.valid.toBoolean && !o.end.now.toBoolean)
-        oriented += Oriented(o.corner.x.toInt, o.corner.y.toInt, o.m10.toLong, o.m01.toLong, o.bin.toInt)
+        oriented += Oriented(o.corner.x.toInt, o.corner.y.toInt, o.m10.toLong, o.m01.toLong)
       val m = dut.matcher
       if (m.decide.done.toBoolean) {
         val a = m.compare.acc
