@@ -83,32 +83,33 @@ class AngleSearch[T <: Data](itemType: HardType[T], d: OrbDescriptorConfig) exte
     val below = Reg(UInt(countWidth bits))
     val tried = count | below
 
-    /** An index past the octant is never tried (`inRange`); its entry repeats the one without the index's top bit,
-      * so that no entry is forced to 0 by that bit, which synthesis would make a reset of the multipliers' input
-      * register. */
-    def entry(j: Int): Long = if (j < m) tangents(j) else tangents(j % (1 << (countWidth - 1)) min (m - 1))
-    val table = Vec((0 until (1 << countWidth)).map(j => U(entry(j), tWidth bits)))
+    /** The table is indexed by the index's low bits only (`tableBits`): an index past the octant is never tried,
+      * so its entry does not matter, and the lookup is a function of fewer bits (fewer logic levels). */
+    val tableBits = log2Up(m)
+    def entry(j: Int): Long = tangents(j min (m - 1))
+    val table = Vec((0 until (1 << tableBits)).map(j => U(entry(j), tWidth bits)))
     val index = RegNext(tried)
     // a's copy and the tangent feed only the multipliers (their input registers), kept apart so that neither is
     // merged with a twin that feeds more than multipliers
     val aForProducts = keptApart(RegNext(fold.a))
-    val tangent = keptApart(RegNext(table(index)))
+    val tangent = keptApart(RegNext(table(index(tableBits - 1 downto 0))))
     val trying = RegNext(index < m && fold.aNonZero)
     val lo = RegNext(aForProducts(loWidth - 1 downto 0) * tangent)
     val hi = RegNext(aForProducts(momentWidth - 1 downto loWidth) * tangent)
     // b 2^F >= a T_j = P exactly when b >= ceil(P / 2^F): the sum forms P / 2^F and whether P has a fraction, so
-    // that the comparison is as wide as b, not as P
-    val (wholeNow, fractionNow) =
+    // that the comparison is as wide as b, not as P; the fraction's bits tested in two halves (each a register)
+    val (wholeNow, fractionBits) =
       if (fracBits <= loWidth) {
         val w = (hi.getWidth + loWidth - fracBits) max (lo.getWidth - fracBits)
         val sum = (hi << (loWidth - fracBits)).resize(w + 1) + lo(lo.getWidth - 1 downto fracBits).resize(w + 1)
-        (sum, lo(fracBits - 1 downto 0) =/= 0)
+        (sum, lo(fracBits - 1 downto 0))
       } else {
         val product = (hi << loWidth).resize(momentWidth + tWidth) + lo.resize(momentWidth + tWidth)
-        (product(product.getWidth - 1 downto fracBits), product(fracBits - 1 downto 0) =/= 0)
+        (product(product.getWidth - 1 downto fracBits), product(fracBits - 1 downto 0))
       }
     val whole = RegNext(wholeNow)
-    val fraction = RegNext(fractionNow)
+    val fractionHalves = fractionBits.subdivideIn(2 slices, strict = false).map(half => RegNext(half =/= 0))
+    val fraction = fractionHalves.reduce(_ || _)
     // b >= whole + fraction, as 2b + 1 > 2 whole + fraction: one comparison
     val cw = (momentWidth max whole.getWidth) + 1
     val takes = trying && ((fold.b.resize(cw - 1) @@ True) > (whole.resize(cw - 1) @@ fraction))

@@ -298,6 +298,19 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
     head.item.bin := bin
     head.rotation := rotation
     o.ready := head.fire
+
+    /** what the dispatch's decisions read of the head, copied beside them (the search lies apart): right whenever
+      * the head is offered, `rotationLatency` clocks after the result */
+    case class Tags() extends Bundle {
+      val startRow = f.rowTag()
+      val frameTag = f.frameTag()
+      val end = FrameEndMark()
+    }
+    val tags = RegNext {
+      val t = Tags()
+      t.assignSomeByName(o.item)
+      t
+    }
   }
 
   /** The oldest slot's feature or a frame's end, offered to the output register (`leaving`). */
@@ -312,7 +325,7 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
     // the queue's RAM through its output register and a register behind it, the bin's search (its state register
     // the queue's readiness: no decision reaches the read pointer), the rotation's lookups (`headOf`)
     val head = headOf.head
-    val c = head.payload.item
+    val c = headOf.tags
     // rows since the patch was complete (negative: not yet), for the head of the clock before: it is the head's
     // now unless the head left then or a row started since (the rows and their history then moved on)
     val difference = (ring.clock.row - c.startRow).asSInt

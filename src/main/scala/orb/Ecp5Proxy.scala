@@ -163,6 +163,22 @@ object Ecp5Proxy {
     io.product := RegNext(product + 1)
   }
 
+  /** An operand register with no enable that takes a constant on a condition (as the angle search's tangent, looked
+    * up from a constant table every clock): synthesis makes the condition the flip-flops' synchronous reset, which
+    * the packing folds back into a LUT before the multiplier's input register. */
+  class TableMulProbe extends Component {
+    val io = new Bundle {
+      val a = in UInt (16 bits)
+      val b = in UInt (16 bits)
+      val zero = in Bool ()
+      val product = out UInt (32 bits)
+    }
+    val a = RegNext(Mux(io.zero, U(0, 16 bits), io.a))
+    val b = RegNext(io.b)
+    val product = RegNext(a * b)
+    io.product := RegNext(product + 1)
+  }
+
   final case class Path(
       from: String,
       to: String,

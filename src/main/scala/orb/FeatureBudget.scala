@@ -191,9 +191,9 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
           Mux(moved(i), if (i == 0) aboveEntering else aboveStaying(i - 1), aboveStaying(i))
         }
 
-        /** the corner enters: a place in use is empty, or ranked below it (the corner is the newest: a tie keeps
-          * the entry) */
-        val admits = RegNext((0 until k).map(i => inUse(i) && (!list(i).valid || corner(i))).orR) init False
+        /** the corner would enter: a place in use is empty, or ranked below it (the corner is the newest: a tie
+          * keeps the entry) */
+        val admitsNow = (0 until k).map(i => inUse(i) && (!list(i).valid || corner(i))).orR
 
         /** the comparisons, registered: the relations of the entering corner to the places it meets */
         val cornerAbove = RegNext(Vec(corner))
@@ -213,11 +213,15 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
         val fullNext = (0 until k).map(i => !inUse(i) || list(i).valid).andR
         val full = RegNext(fullNext) init False
 
-        /** the corner's list, one copy per place and part of the entry (kept apart: each half of the score, which
-          * only the emission reads, and the rest): no one register enables a whole list or entry */
-        val writes = (0 until k).map { _ =>
+        /** the corner's list */
+        val selected = RegNext(arriving.selects(l)) init False
+
+        /** the corner's list, and it enters it: one copy per place and part of the entry (kept apart: each half of
+          * the score, which only the emission reads, and the rest), so that no one register enables a whole list or
+          * entry */
+        val enters = (0 until k).map { _ =>
           Seq.fill(FeatureBudget.entryParts) {
-            keptApart(RegNext(arriving.selects(l)) init False)
+            keptApart(RegNext(arriving.selects(l) && admitsNow) init False)
           }
         }
 
@@ -228,7 +232,7 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
         /** `emptying` while the last place is empty, decided a clock ahead into registers from the next value of
           * `emptying` and of the last place as it empties (`lastValidNext`): no path from the list's last place or
           * the emission to every place's enable; one copy per place and part of the entry (kept apart), as
-          * `writes` */
+          * `enters` */
         val advances = (0 until k).map { _ =>
           Seq.fill(FeatureBudget.entryParts) {
             keptApart(Reg(Bool()) init False)
@@ -267,7 +271,7 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
         }
         val scoreHalf = h.scoreWidth / 2
         val moving = (0 until k).map { i =>
-          writes(i).zip(advances(i)).map { case (w, a) => (w && admits && freedFrom(i)) || a }
+          enters(i).zip(advances(i)).map { case (e, a) => (e && freedFrom(i)) || a }
         }
         for (i <- 0 until k) {
           moved(i) := moving(i)(FeatureBudget.restPart)
@@ -301,7 +305,7 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
         }
 
         /** the corner is deselected here: its list keeps k entries, the corner itself or the weakest it pushes out */
-        val deselects = writes.head(2) && full
+        val deselects = selected && full
       }
 
     /** a corner deselected in this clock */
@@ -327,7 +331,9 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
     val rowStart = p.valid && p.x === 0 && p.active
     val sinceEnd = p.y - b.emitRowOffset
     val triggers = rowStart && p.y >= b.cellHeight + b.emitRowOffset && sinceEnd(b.bandShift - 1 downto 0) === 0
-    val trigger = RegNext(triggers) init False
+    // kept apart: the frame end's copies of the same register (`Firing.triggered`) would otherwise absorb it, and
+    // one of them then drive every list's moves from across the block
+    val trigger = keptApart(RegNext(triggers) init False)
 
     /** the band that ends `emitRowOffset` rows before the triggering row */
     val band = RegNext(sinceEnd(f.coordWidth - 1 downto b.bandShift) - 1)
@@ -345,8 +351,10 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
     // raster order is at its last place (`k - 1` moves at most after the trigger, one after a winner left it). The
     // bank is empty again (every winner left) before the band two later, which shares it, gets its first corner
     // (`OrbConfig.budgetService` checks that the emission is that fast).
+    // each list's emptying set by a copy of the trigger of its own (kept apart), beside the list's moves
     for (((bk, _), l) <- intake.lists.zipWithIndex) {
-      when(trigger) {
+      val triggerHere = keptApart(RegNext(triggers) init False)
+      when(triggerHere) {
         intake.perList(l).emptying := band(0 downto 0) === bk
       }
     }
@@ -410,12 +418,10 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
       r.foreach(_.init(False))
       keptApart(r)
     }
-    val first = RegNext({
-      val picked = MuxOH.or(wins, heads)
-      picked.score.allowOverride() := MuxOH.or(winsScore, heads.map(_.score))
-      picked.key.allowOverride() := MuxOH.or(winsKey, heads.map(_.key))
-      picked
-    })
+    val picked = MuxOH.or(wins, heads)
+    picked.score.allowOverride() := MuxOH.or(winsScore, heads.map(_.score))
+    picked.key.allowOverride() := MuxOH.or(winsKey, heads.map(_.key))
+    val first = RegNext(picked)
     // the list the winner leaves, one flag per list, registered beside the pick: with `now` the whole of a list's
     // `leaves` (no bank or cell comparison behind it; the one-hot has exactly one winner, the keys being distinct)
     val leavesList = Vec(intake.lists.map { case (bk, cell) =>
@@ -428,8 +434,18 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
     require(steps + 2 <= FeatureBudget.winnerClocks, "a list has moved on before its next winner is chosen")
     val out = Flow(CornerHw(f, h))
     // the winner's step, decided a clock ahead into a register from the next values of the registers it reads
-    val now =
-      RegNext(busy.getAheadValue() && pace.getAheadValue() === steps && settling.getAheadValue() === 0) init False
+    val nowNext = busy.getAheadValue() && pace.getAheadValue() === steps && settling.getAheadValue() === 0
+    // kept apart, as its copies below are (synthesis would otherwise merge it with one of them)
+    val now = keptApart(RegNext(nowNext) init False)
+    keptApart(first.valid)
+
+    /** per list: the band's emission ends now (its winner's step found no winner), from copies of `now` and of the
+      * winner's valid of the list's own (kept apart): no one register clears every list's `emptying` */
+    val endsForList = intake.lists.indices.map { _ =>
+      val nowCopy = keptApart(RegNext(nowNext) init False)
+      val validCopy = keptApart(RegNext(picked.valid) init False)
+      nowCopy && !validCopy
+    }
     out.valid := now && first.valid
     out.x := first.key.resize(cellWidth + b.cellShift).resize(f.coordWidth)
     out.y := bandY + first.key(first.key.getWidth - 1 downto first.key.getWidth - b.bandShift).resize(f.coordWidth)
@@ -451,7 +467,11 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
         }
       } otherwise {
         busy := False
-        intake.perList.foreach(_.emptying := False)
+      }
+    }
+    for (l <- intake.lists.indices) {
+      when(endsForList(l)) {
+        intake.perList(l).emptying := False
       }
     }
   }

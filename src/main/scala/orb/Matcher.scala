@@ -406,6 +406,14 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
     val group0 = Delay(scan.readAddr, readLatency)
     val valid = Delay(valid0, popStages, init = False)
     val group = Delay(group0, popStages)
+
+    /** per lane, whether its entry of the group is in the store: compared as the group is read (the store's count
+      * does not change during a scan) and delayed with the distance, a register beside the lane (no comparison with
+      * the count before the merge) */
+    val reals = (0 until P).map { l =>
+      val index = (group0.resize(countWidth) |<< log2Up(P)) | U(l, countWidth bits)
+      Delay(RegNext(index < stored), popStages - 1)
+    }
     case class Lane() extends Bundle {
       val distance = UInt(distanceWidth bits)
       val index = UInt(countWidth bits)
@@ -440,7 +448,7 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
         val count = MatcherConfig.hamming(r.entry.descriptor, liveDescriptor, m.popcountLevelsPerStage)
         val old = r.cross
         val index = (group.resize(countWidth) |<< log2Up(P)) | U(l, countWidth bits)
-        val real = index < stored
+        val real = reals(l)
         val wins = valid && real && count < old.distance
         // A live feature nearer than the entry's best so far takes the entry over (mutual decided when its scan ends).
         val update = Cross(); update.distance := count; update.mutual := False

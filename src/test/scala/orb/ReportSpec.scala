@@ -36,6 +36,10 @@ class ReportSpec extends AnyFunSuite {
         // an operand register with a synchronous set/reset of its enable: folded into LUTs before the block's register
         (
             () => new Ecp5Proxy.ResetMulProbe
+        ) -> "ram_ports=0 ram_ffs=0 mult_inputs=2 mult_constant_inputs=0 mult_outputs=1 mult_ffs=64 mult_constant_pins=5 inverted_enables=0 mult_resets_folded=16",
+        // an operand register with no enable and a synchronous reset (a constant table's entries): folded alike
+        (
+            () => new Ecp5Proxy.TableMulProbe
         ) -> "ram_ports=0 ram_ffs=0 mult_inputs=2 mult_constant_inputs=0 mult_outputs=1 mult_ffs=64 mult_constant_pins=5 inverted_enables=0 mult_resets_folded=16"
       )
     ) {

@@ -126,9 +126,10 @@ def pack(src, dst, top):
         return bool(pins) and all(not bits[i] or any((i >> p) & 1 for p in pins) for i in range(16))
 
     def input_ff(name):
-        """a flip-flop a multiplier's input register can take: `plain_ff` with an enable, or one whose synchronous
-        set or reset acts only with its enable (the reset a LUT of the enable: yosys folds a constant into the
-        flip-flop that way); returns (clock, enable, None or (reset net, value)) or None"""
+        """a flip-flop a multiplier's input register can take: `plain_ff` with an enable, one with no enable and a
+        synchronous set or reset (yosys folds a constant table's entries into the flip-flop that way), or one whose
+        synchronous set or reset acts only with its enable (the reset a LUT of the enable); returns (clock, enable,
+        None or (reset net, value)) or None"""
         info = plain_ff(name, allow_enable=True)
         if info is not None:
             return info[0], info[1], None
@@ -138,12 +139,19 @@ def pack(src, dst, top):
         p, k = c["parameters"], c["connections"]
         if p.get("SRMODE", "LSR_OVER_CE").strip() != "LSR_OVER_CE" or p.get("LSRMUX", "LSR").strip() != "LSR":
             return None
-        if p.get("CLKMUX", "CLK").strip() != "CLK" or p.get("CEMUX", "1").strip() != "CE":
+        if p.get("CLKMUX", "CLK").strip() != "CLK":
             return None
+        value = 1 if p.get("REGSET", "RESET").strip() == "SET" else 0
         lsr, ce = k.get("LSR", ["0"])[0], k.get("CE", ["1"])[0]
+        if p.get("CEMUX", "1").strip() == "1" or ce == "1":
+            # no enable: the next value is the reset's while it is on, DI otherwise, exactly what a LUT before a
+            # plain register gives
+            return k["CLK"][0], "1", (lsr, value)
+        if p.get("CEMUX", "1").strip() != "CE":
+            return None
         if not lut_implies(lsr, ce):
             return None
-        return k["CLK"][0], ce, (lsr, 1 if p.get("REGSET", "RESET").strip() == "SET" else 0)
+        return k["CLK"][0], ce, (lsr, value)
 
     folded = {}
 
