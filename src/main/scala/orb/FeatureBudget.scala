@@ -191,9 +191,9 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
           Mux(moved(i), if (i == 0) aboveEntering else aboveStaying(i - 1), aboveStaying(i))
         }
 
-        /** the corner would enter: a place in use is empty, or ranked below it (the corner is the newest: a tie
-          * keeps the entry) */
-        val admitsNow = (0 until k).map(i => inUse(i) && (!list(i).valid || corner(i))).orR
+        /** the corner enters: a place in use is empty, or ranked below it (the corner is the newest: a tie keeps
+          * the entry) */
+        val admits = RegNext((0 until k).map(i => inUse(i) && (!list(i).valid || corner(i))).orR) init False
 
         /** the comparisons, registered: the relations of the entering corner to the places it meets */
         val cornerAbove = RegNext(Vec(corner))
@@ -213,15 +213,12 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
         val fullNext = (0 until k).map(i => !inUse(i) || list(i).valid).andR
         val full = RegNext(fullNext) init False
 
-        /** the corner's list */
-        val selected = RegNext(arriving.selects(l)) init False
-
-        /** the corner's list, and it enters it: one copy per place and part of the entry (kept apart: each half of
-          * the score, which only the emission reads, and the rest), so that no one register enables a whole list or
-          * entry */
-        val enters = (0 until k).map { _ =>
+        /** the corner's list, one copy per place and part of the entry (kept apart: each half of the score, which
+          * only the emission reads, and the rest): no one register enables a whole list or entry. (The admission
+          * is not folded into them: its logic before every copy routed worse than one register after it.) */
+        val writes = (0 until k).map { _ =>
           Seq.fill(FeatureBudget.entryParts) {
-            keptApart(RegNext(arriving.selects(l) && admitsNow) init False)
+            keptApart(RegNext(arriving.selects(l)) init False)
           }
         }
 
@@ -232,7 +229,7 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
         /** `emptying` while the last place is empty, decided a clock ahead into registers from the next value of
           * `emptying` and of the last place as it empties (`lastValidNext`): no path from the list's last place or
           * the emission to every place's enable; one copy per place and part of the entry (kept apart), as
-          * `enters` */
+          * `writes` */
         val advances = (0 until k).map { _ =>
           Seq.fill(FeatureBudget.entryParts) {
             keptApart(Reg(Bool()) init False)
@@ -271,7 +268,7 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
         }
         val scoreHalf = h.scoreWidth / 2
         val moving = (0 until k).map { i =>
-          enters(i).zip(advances(i)).map { case (e, a) => (e && freedFrom(i)) || a }
+          writes(i).zip(advances(i)).map { case (w, a) => (w && admits && freedFrom(i)) || a }
         }
         for (i <- 0 until k) {
           moved(i) := moving(i)(FeatureBudget.restPart)
@@ -305,7 +302,7 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
         }
 
         /** the corner is deselected here: its list keeps k entries, the corner itself or the weakest it pushes out */
-        val deselects = selected && full
+        val deselects = writes.head(2) && full
       }
 
     /** a corner deselected in this clock */
