@@ -406,13 +406,13 @@ case class MatcherConfig(
   def ratioWidth: Int = ratioFracBits + 1
 
   /** clocks a live feature holds the matcher: the scan (its groups rounded up to pairs), the RAM read
-    * (`MatcherConfig.readLatency`), the popcount, the lane register, the merge levels (two steps each), the pair's comparisons and
-    * choice, the accumulation's comparisons and choice, the ratio product (registered twice), one to decide. A
-    * keyframe feature that replaces an entry holds it no longer: the rescan reads every group once, its pairs as
-    * the scan's. */
+    * (`MatcherConfig.readLatency`), the popcount, the lane register, the merge levels (two steps each), the pairs'
+    * and the accumulation's comparisons and choices (5), the best entry's position read back
+    * (`MatcherConfig.decideLatency`, the decision in its last clock). A keyframe feature that replaces an entry holds
+    * it no longer: the rescan reads every group once, its pairs as the scan's. */
   def clocksPerFeature: Int =
     (groups + 1) / 2 * 2 + MatcherConfig.readLatency + MatcherConfig.popcountStages(this) + 1 +
-      2 * log2Up(comparators) + 2 + 1 + 2 + 1 + 1
+      2 * log2Up(comparators) + 5 + MatcherConfig.decideLatency
 
   /** an upper bound on the clocks a frame's end item holds the matcher: a live frame's cross-checked entries leave
     * one per clock (storeCapacity), a keyframe's cross-check words are cleared one group per clock, plus the
@@ -432,6 +432,11 @@ object MatcherConfig {
   /** clocks from a read's address to its cross word: a plain register behind the RAM's output register (the
     * comparisons, the rescan and the sweep that read it lie apart from the RAM) */
   val crossLatency: Int = readLatency + 1
+
+  /** clocks from a scan's last accumulation to its decision: the best entry's group into the scan's address, the
+    * read to its lane's word (`crossLatency`), the lane's register (the ratio's product, registered twice, is ready
+    * long before) */
+  val decideLatency: Int = 1 + crossLatency + 1
 
   /** clocks from the sweep's read of an entry to its correspondence's push into the output FIFO (the entry zeroed
     * unless read into a register of its lane, the lanes ORed into a register, then the push's register) */

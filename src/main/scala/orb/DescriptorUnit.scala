@@ -112,7 +112,7 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
     val history = Vec.fill(historyRows)(Reg(RowInfo()))
     history.foreach(_.active.init(False))
     val thisRow = RowInfo()
-    thisRow.active := s.pixel.active
+    thisRow.active := s.active
     thisRow.frame := clock.frameNext
     // a row start writes the entry of the count it starts, one more than the count's low bits before it (by a copy
     // of the row start of the history's own)
@@ -150,7 +150,7 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
     }
     // address and data, one copy per cluster of four banks (kept apart): no one register drives every bank
     val writeAddress = Seq.fill(writeClusters) {
-      keptApart(RegNext((slotNext.lsb ## (s.pixel.x - blurRadius).resize(colWidth)).asUInt))
+      keptApart(RegNext((slotNext.lsb ## (s.x - blurRadius).resize(colWidth)).asUInt))
     }
     val writeData = Seq.fill(writeClusters) {
       keptApart(RegNext(s.smoothed))
@@ -743,14 +743,14 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
         step(o)
       }
     }
-    // |x'| and |y'| before rounding half to even: the bits from the half upwards and whether any bit below the half
-    // is set (rounding is symmetric, so the sign comes after)
+    // |x'| and |y'| rounded half to even: the quotient's bits with the sign folded in (ones' complement) and the
+    // carry that completes the rounding and the two's complement, in the register after the sum (rounding is
+    // symmetric, so the sign comes after the magnitude's rounding), the adder a step later
     val fb = d.rotationFracBits
     val sumWidth = productWidth + 2
-    case class Sum() extends Bundle {
-      val high = SInt(sumWidth + 1 - fb bits)
-      val sticky = Bool()
-      val negative = Bool()
+    case class Rounding() extends Bundle {
+      val folded = Bits(offsetWidth bits)
+      val carry = Bool()
     }
 
     /** a + b or a - b in one adder: (2a + 1) + (2 (b xor s) + s), halved */
@@ -759,11 +759,16 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
       val other = ((b.resize(sumWidth).asBits ^ B(sumWidth bits, default -> subtract)) ## subtract).asUInt
       (ext + other)(sumWidth downto 1).asSInt
     }
-    def sum(v: SInt, negative: Bool): Sum = {
-      val o = Sum()
-      o.high := v(v.high downto fb - 1)
-      o.sticky := v(fb - 2 downto 0).orR
-      o.negative := negative
+
+    /** floor(|v| / 2^fb) + 1 when the rest is above the half, or exactly the half and the floor odd (cvRound), then
+      * the sign: (q + up) or -(q + up) = ~q + !up, as the folded quotient and the carry in */
+    def rounding(v: SInt, negative: Bool): Rounding = {
+      val high = v(v.high downto fb - 1)
+      val q = high(high.high downto 1).resize(offsetWidth)
+      val up = high(0) && (v(fb - 2 downto 0).orR || q.lsb)
+      val o = Rounding()
+      o.folded := q.asBits ^ B(offsetWidth bits, default -> negative)
+      o.carry := up ^ negative
       o
     }
 
@@ -790,19 +795,15 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
     }
     val sums = new Area {
       val token = stepToken(totals.token)
-      val x = totals.x.map(t => step(sum(t.value, t.negative)))
-      val y = totals.y.map(t => step(sum(t.value, t.negative)))
+      val x = totals.x.map(t => step(rounding(t.value, t.negative)))
+      val y = totals.y.map(t => step(rounding(t.value, t.negative)))
     }
 
-    /** floor(v / 2^fb) + 1 when the rest is above the half, or exactly the half and the floor odd (cvRound), then
-      * the sign, plus `plus`: the low `width` bits of its two's complement */
-    def round(s: Sum, plus: Int, width: Int): UInt = {
-      val q = s.high(s.high.high downto 1).resize(offsetWidth)
-      val up = s.high(0) && (s.sticky || q.lsb)
-      // (q + up) or -(q + up) = ~q + !up: the sign folded into the operand and the carry in; the carry in as the
-      // low bit of both operands (2a + 1 + 2b + c = 2 (a + b + c) + 1), so that `plus` takes no second adder
-      val folded = (q.asBits ^ B(offsetWidth bits, default -> s.negative)).asSInt.resize(width).asUInt
-      val sum = (folded @@ True) + (U(plus, width bits) @@ (up ^ s.negative))
+    /** the rounded value plus `plus`: the low `width` bits of its two's complement; the carry in as the low bit of
+      * both operands (2a + 1 + 2b + c = 2 (a + b + c) + 1), so that `plus` takes no second adder */
+    def round(r: Rounding, plus: Int, width: Int): UInt = {
+      val folded = r.folded.asSInt.resize(width).asUInt
+      val sum = (folded @@ True) + (U(plus, width bits) @@ r.carry)
       sum(width downto 1)
     }
     val rotated = new Area {

@@ -43,23 +43,18 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
   val maxWinners = k * cells * ((f.maxHeight + b.cellHeight - 1) / b.cellHeight)
   val countWidth = log2Up(maxWinners + 1)
 
+  val slotWidth = log2Up(k max 2)
+
   case class Entry() extends Bundle {
     val valid = Bool()
     val xOffset = UInt(b.cellShift bits)
     val yOffset = UInt(b.bandShift bits)
-    val score = UInt(h.scoreWidth bits)
 
     /** the score's rank (`BudgetModel.rank`): what the list compares */
     val rank = UInt(rankWidth bits)
-  }
-  def emptyEntry: Entry = {
-    val e = Entry()
-    e.valid := False
-    e.xOffset := 0
-    e.yOffset := 0
-    e.score := 0
-    e.rank := 0
-    e
+
+    /** where its score is (`scores`): one of the list's `k` words, each place's its own */
+    val slot = UInt(slotWidth bits)
   }
 
   /** The leading one's position of a score (`BudgetModel.levelOf`, first step). */
@@ -104,7 +99,20 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
   /** Every list in arrival order (raster order within its cell), the newest at place 0 and the place that leaves
     * first, `k - 1`, at the end. */
   val banks = Vec.fill(2)(Vec.fill(cells)(Vec.fill(k)(Reg(Entry()))))
-  for (bank <- banks; cell <- bank; e <- cell) e.valid.init(False)
+  for (bank <- banks; cell <- bank; (e, i) <- cell.zipWithIndex) {
+    e.valid.init(False)
+    e.slot.init(i)
+  }
+
+  // The scores, which only the emission's output needs, in a RAM beside the lists (a word per place of every
+  // list): a place holds its word's number, which moves with the entry; a corner that enters takes the word of the
+  // place it frees (an empty one, or the weakest it pushes out), so the places' words stay distinct. The bank being
+  // emitted takes no corner, so a winner's word is not written until it has been read.
+  val scores = new Area {
+    val cellWidth = log2Up(cells max 2)
+    val ram = Mem(UInt(h.scoreWidth bits), 2 << (cellWidth + slotWidth))
+    def address(bank: UInt, cell: UInt, slot: UInt): UInt = bank @@ cell @@ slot
+  }
 
   // A corner into its cell's list. Each list decides beside its own registers, and each place is loaded only from
   // the place before it (place 0 from the corner), so no list is read through a multiplexer and every place has one
@@ -213,13 +221,11 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
         val fullNext = (0 until k).map(i => !inUse(i) || list(i).valid).andR
         val full = RegNext(fullNext) init False
 
-        /** the corner's list, one copy per place and part of the entry (kept apart: each half of the score, which
-          * only the emission reads, and the rest): no one register enables a whole list or entry. (The admission
-          * is not folded into them: its logic before every copy routed worse than one register after it.) */
+        /** the corner's list, one copy per place (kept apart): no one register enables a whole list. (The
+          * admission is not folded into them: its logic before every copy routed worse than one register after
+          * it.) */
         val writes = (0 until k).map { _ =>
-          Seq.fill(FeatureBudget.entryParts) {
-            keptApart(RegNext(arriving.selects(l)) init False)
-          }
+          keptApart(RegNext(arriving.selects(l)) init False)
         }
 
         /** the list's band is being emitted (set and cleared by the emission): its entries move on whenever the
@@ -228,12 +234,9 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
 
         /** `emptying` while the last place is empty, decided a clock ahead into registers from the next value of
           * `emptying` and of the last place as it empties (`lastValidNext`): no path from the list's last place or
-          * the emission to every place's enable; one copy per place and part of the entry (kept apart), as
-          * `writes` */
+          * the emission to every place's enable; one copy per place (kept apart), as `writes` */
         val advances = (0 until k).map { _ =>
-          Seq.fill(FeatureBudget.entryParts) {
-            keptApart(Reg(Bool()) init False)
-          }
+          keptApart(Reg(Bool()) init False)
         }
         // a list being emptied moves an empty entry into place 0
         val fresh = Entry()
@@ -249,15 +252,14 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
           * (`OrbConfig.budgetService`); nor does the frame's end fire (it waits until the emission has ended). So
           * neither is in it. */
         val lastValidNext = !leaves && Mux(
-          advances(k - 1)(FeatureBudget.restPart),
+          advances(k - 1),
           if (k == 1) fresh.valid else list(k - 2).valid,
           list(k - 1).valid
         )
         val advancesNext = emptying.getAheadValue() && !lastValidNext
-        advances.foreach(_.foreach(_ := advancesNext))
+        advances.foreach(_ := advancesNext)
         fresh.xOffset := compared.corners(bank).x.resize(b.cellShift)
         fresh.yOffset := compared.corners(bank).y.resize(b.bandShift)
-        fresh.score := compared.corners(bank).score
         fresh.rank := compared.ranks(l)
         // place i moves on when the freed place is i or after it: in a list that is not full the first empty one
         // (the places before it are full), in a full one the weakest; decided with the comparisons into registers
@@ -266,47 +268,59 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
           if (i == 0) True
           else RegNext(Mux(fullNext, weakestNext.drop(i).orR, list(i - 1).valid)) init False
         }
-        val scoreHalf = h.scoreWidth / 2
         val moving = (0 until k).map { i =>
-          writes(i).zip(advances(i)).map { case (w, a) => (w && admits && freedFrom(i)) || a }
+          (writes(i) && admits && freedFrom(i)) || advances(i)
         }
         for (i <- 0 until k) {
-          moved(i) := moving(i)(FeatureBudget.restPart)
+          moved(i) := moving(i)
         }
+        // the freed place's word: the last place that moves (`freedFrom` holds up to the freed place); a list being
+        // emptied moves its last place's (empty) into place 0
+        val freedSlot = MuxOH.or(
+          (0 until k).map(i => if (i == k - 1) freedFrom(i) else freedFrom(i) && !freedFrom(i + 1)),
+          list.map(_.slot)
+        )
+        fresh.slot := Mux(emptying, list(k - 1).slot, freedSlot)
+
+        /** the corner enters this list now: its score goes into the freed place's word */
+        val enters = writes.head && admits
         // the relations move with the entries: a place that takes the one before it takes its relations (with the
         // place before an older place that moves too, else with that older place itself); place 0 takes the
         // corner's
         for (a <- 0 until k; b <- a + 1 until k) {
-          when(moving(a)(FeatureBudget.restPart)) {
+          when(moving(a)) {
             above((a, b)) := (
-              if (a == 0) Mux(moving(b)(FeatureBudget.restPart), cornerAbove(b - 1), cornerAbove(b))
-              else Mux(moving(b)(FeatureBudget.restPart), above((a - 1, b - 1)), above((a - 1, b)))
+              if (a == 0) Mux(moving(b), cornerAbove(b - 1), cornerAbove(b))
+              else Mux(moving(b), above((a - 1, b - 1)), above((a - 1, b)))
             )
           }
         }
         for (i <- 0 until k) {
-          val moves = moving(i)
           val from = if (i == 0) fresh else list(i - 1)
-          when(moves(FeatureBudget.lowScorePart)) {
-            list(i).score(scoreHalf - 1 downto 0) := from.score(scoreHalf - 1 downto 0)
-          }
-          when(moves(FeatureBudget.highScorePart)) {
-            list(i).score(h.scoreWidth - 1 downto scoreHalf) := from.score(h.scoreWidth - 1 downto scoreHalf)
-          }
-          when(moves(FeatureBudget.restPart)) {
-            list(i).valid := from.valid
-            list(i).xOffset := from.xOffset
-            list(i).yOffset := from.yOffset
-            list(i).rank := from.rank
+          when(moving(i)) {
+            list(i) := from
           }
         }
 
         /** the corner is deselected here: its list keeps k entries, the corner itself or the weakest it pushes out */
-        val deselects = writes.head(2) && full
+        val deselects = writes.head && full
       }
 
     /** a corner deselected in this clock */
     val deselect = perList.map(_.deselects).orR
+
+    // The entering corner's score into its word: the list and its word registered beside the list, the RAM's
+    // address chosen from them into a register, the score delayed beside it (no list's logic reaches the RAM).
+    val scoreWrite = new Area {
+      val entered = RegNext(Vec(perList.map(_.enters)))
+      entered.foreach(_.init(False))
+      val slots = perList.map(l => RegNext(l.freedSlot))
+      val addresses = lists.zip(slots).map { case ((bank, cell), slot) =>
+        scores.address(U(bank, 1 bits), U(cell, scores.cellWidth bits), slot)
+      }
+      val score = Delay(compared.corners.head.score, 2)
+      scores.ram.write(RegNext(MuxOH.or(entered, addresses)), score, RegNext(entered.orR) init False)
+    }
 
     /** a corner on its way into a list */
     val busy = ranked.first.valid || ranked.second.valid || ranked.corner.valid || lined.valid || arriving.valid ||
@@ -364,8 +378,8 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
       settling := settling - 1
     }
     val choosing = settling =/= 0
-    // the band's lists, each cell's picked from its bank by copies of the bank register of its own (kept apart: one
-    // register would choose every entry), one for the score and one for the rest of the entry
+    // the band's lists, each cell's picked from its bank by a copy of the bank register of its own (kept apart: one
+    // register would choose every entry)
     def bankCopy(): UInt = {
       val copy = keptApart(Reg(UInt(1 bits)) init 0)
       when(trigger) {
@@ -373,7 +387,6 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
       }
       copy
     }
-    val scoreBankOfCell = Seq.fill(cells)(bankCopy())
     val bankOfCell = Seq.fill(cells)(bankCopy())
     val cellWidth = log2Up(cells max 2)
     case class Candidate() extends Bundle {
@@ -381,8 +394,8 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
 
       /** the raster order within the band: row offset, cell, column offset */
       val key = UInt(b.bandShift + cellWidth + b.cellShift bits)
-      val score = UInt(h.scoreWidth bits)
       val rank = UInt(rankWidth bits)
+      val slot = UInt(slotWidth bits)
 
       /** its cell, one-hot: the list it leaves */
       val cell = Bits(cells bits)
@@ -399,24 +412,23 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
       val cand = Candidate()
       cand.valid := e.valid
       cand.key := e.yOffset @@ U(cell, cellWidth bits) @@ e.xOffset
-      cand.score := Mux(scoreBankOfCell(cell) === 1, banks(1)(cell)(k - 1).score, banks(0)(cell)(k - 1).score)
+      cand.slot := e.slot
       cand.rank := e.rank
       cand.cell := B(BigInt(1) << cell, cells bits)
       RegNext(cand)
     }
     val before = (for (i <- 0 until cells; j <- i + 1 until cells)
       yield (i, j) -> RegNext(order(heads(i)) < order(heads(j)))).toMap
-    // the one-hot three times (kept apart): one picks the score, one the key, the other the rest of the entry
+    // the one-hot twice (kept apart): one picks the key, the other the rest of the entry
     val winsNext = Vec((0 until cells).map { i =>
       (0 until cells).filter(_ != i).map(j => if (i < j) before((i, j)) else !before((j, i))).foldLeft(True)(_ && _)
     })
-    val Seq(winsScore, winsKey, wins) = Seq.fill(3) {
+    val Seq(winsKey, wins) = Seq.fill(2) {
       val r = RegNext(winsNext)
       r.foreach(_.init(False))
       keptApart(r)
     }
     val picked = MuxOH.or(wins, heads)
-    picked.score.allowOverride() := MuxOH.or(winsScore, heads.map(_.score))
     picked.key.allowOverride() := MuxOH.or(winsKey, heads.map(_.key))
     val first = RegNext(picked)
     // the list the winner leaves, one flag per list, registered beside the pick: with `now` the whole of a list's
@@ -429,7 +441,12 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
     // (the pace starts a clock after `choosing`; a list settles two clocks after its winner left).
     val steps = FeatureBudget.choiceDepth
     require(steps + 2 <= FeatureBudget.winnerClocks, "a list has moved on before its next winner is chosen")
-    val out = Flow(CornerHw(f, h))
+
+    /** a winner's position (its score follows: `score`) */
+    case class Winner() extends Bundle {
+      val x, y = f.coord()
+    }
+    val out = Flow(Winner())
     // the winner's step, decided a clock ahead into a register from the next values of the registers it reads
     val nowNext = busy.getAheadValue() && pace.getAheadValue() === steps && settling.getAheadValue() === 0
     // kept apart, as its copies below are (synthesis would otherwise merge it with one of them)
@@ -446,8 +463,14 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
     out.valid := now && first.valid
     out.x := first.key.resize(cellWidth + b.cellShift).resize(f.coordWidth)
     out.y := bandY + first.key(first.key.getWidth - 1 downto first.key.getWidth - b.bandShift).resize(f.coordWidth)
-    out.score := first.score
     val outRank = first.rank
+
+    /** the winner's score, read from its word as it leaves (the address into a register, the RAM's output
+      * register): `scoreLatency` clocks after `out` */
+    val score = RegNext(
+      scores.ram.readSync(RegNext(scores.address(bank, OHToUInt(first.cell).resize(scores.cellWidth), first.slot)))
+    )
+    val scoreLatency = 3
     when(busy) {
       pace := Mux(pace === FeatureBudget.winnerClocks - 1, U(0, pace.getWidth bits), pace + 1)
     }
@@ -528,7 +551,11 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
       }
     }
     io.selected.valid := RegNext(take) init False
-    io.selected.payload := RegNext(winner.payload)
+    io.selected.x := RegNext(winner.x)
+    io.selected.y := RegNext(winner.y)
+    // the score read as the winner left the bank, beside it here
+    require(emission.scoreLatency == 3, "the winner is three stages on")
+    io.selected.score := RegNext(emission.score)
   }
 
   object Phase extends SpinalEnum {
@@ -675,13 +702,6 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
 }
 
 object FeatureBudget {
-
-  /** a list entry's parts, each loaded by an enable of its own: the score's two halves (which only the emission
-    * reads) and the rest */
-  val lowScorePart: Int = 0
-  val highScorePart: Int = 1
-  val restPart: Int = 2
-  val entryParts: Int = 3
 
   /** Clocks between two winners leaving a bank: the registered steps that choose one, and the histogram's read, its
     * registered data, the write back. */

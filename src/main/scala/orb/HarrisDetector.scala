@@ -77,7 +77,8 @@ case class HarrisStages(
   * Input: one column of the newest `HarrisConfig.rawRows` rows per pixel. The gradients of 7 rows are computed
   * side by side from those 9 raw rows, so no gradient or product is ever stored: the only memories are the
   * shared raw rows and 2 rows of scores for the suppression. A corner at (x, y) leaves with the input pixel
-  * (x + 5, y + 5), `stages.latency` clocks after it. */
+  * (x + 5, y + 5), `stages.latency` clocks after it. The pixels' positions must be the `FrameTracker`'s (they are
+  * counted again from their line and frame starts, see `position`). */
 class HarrisDetector(f: FrameConfig, h: HarrisConfig, columnRows: Int, stages: HarrisStages = HarrisStages())
     extends Component {
   require(columnRows >= HarrisConfig.rawRows)
@@ -295,11 +296,34 @@ class HarrisDetector(f: FrameConfig, h: HarrisConfig, columnRows: Int, stages: H
     val SCORE = insert(Mux(shifted.sign || !candidate, U(0, h.scoreWidth bits), shifted.asUInt.resize(h.scoreWidth)))
   }
 
+  // The beat's position is not carried through the stages: a beat at x = 0 starts a line and one at x = y = 0 a
+  // frame (the tracker's positions only start over there; they step by one per beat and saturate at the limits
+  // otherwise), two flags compared a node after the input (from its register); a counter a node before the
+  // suppression's read follows them, so that the read's node holds the beat's position in a register (the node
+  // holds the beat the counter took a clock earlier).
+  val position = new Area {
+    val compared = at(1)
+    val LINE_START = compared.insert(compared(PIXEL).x === 0)
+    val FRAME_START = compared.insert(compared(PIXEL).x === 0 && compared(PIXEL).y === 0)
+    val counting = at(stages.suppressRead - 1)
+    val x, y = Reg(f.coord()) init 0
+    when(counting.isValid) {
+      x := Mux(counting(LINE_START), U(0, f.coordWidth bits), Mux(x === f.maxWidth, x, x + 1))
+      when(counting(FRAME_START)) {
+        y := 0
+      } elsewhen (counting(LINE_START) && y =/= f.maxHeight) {
+        y := y + 1
+      }
+    }
+    val X = at(stages.suppressRead).insert(x)
+    val Y = at(stages.suppressRead).insert(y)
+  }
+
   // 3x3 suppression over the last 3 rows of scores (its own small row window) and 3 columns of registers.
   val suppress = new Area {
     val read = at(stages.suppressRead)
     val scores = new RowWindow(RowWindowConfig(3, f.maxWidth, h.scoreWidth))
-    val WINDOW = at(stages.window).insert(scores.column(read.isValid, read(PIXEL).x, read(response.SCORE).asBits))
+    val WINDOW = at(stages.window).insert(scores.column(read.isValid, read(position.X), read(response.SCORE).asBits))
     val n = at(stages.suppress)
     val shift = validCopy(stages.suppress)
     val cols = lastValid(Vec(n(WINDOW).map(_.asUInt)), 3, shift) // 0: x, 1: x-1 (centre), 2: x-2
@@ -325,7 +349,7 @@ class HarrisDetector(f: FrameConfig, h: HarrisConfig, columnRows: Int, stages: H
       RegNext(Mux(end < h.border, U(0, widthOf(end) bits), end - h.border))
     }
     def inside(v: UInt, size: UInt): Seq[Bool] = Seq(v >= h.border + reach, v < below(size))
-    val INSIDE = w.insert(Vec(inside(w(PIXEL).x, geometry.width) ++ inside(w(PIXEL).y, geometry.height)))
+    val INSIDE = w.insert(Vec(inside(w(position.X), geometry.width) ++ inside(w(position.Y), geometry.height)))
     // The comparisons with the centre in parts side by side, registered; each combined a node later, then the
     // tests combined into the corner's flag. The threshold's bits above a score's decide alone (a register).
     def parts(a: UInt, b: UInt, orEqual: Boolean): Bits = Arith.comparedInParts(a, b, orEqual, stages.suppressParts)
@@ -343,8 +367,8 @@ class HarrisDetector(f: FrameConfig, h: HarrisConfig, columnRows: Int, stages: H
     val d = at(stages.decide)
     val TESTS = d.insert(d(HOLDS).asBits.andR)
     // the corner's position, the centre's, registered with the tests
-    val CX = n.insert(p.x - reach)
-    val CY = n.insert(p.y - reach)
+    val CX = n.insert(n(position.X) - reach)
+    val CY = n.insert(n(position.Y) - reach)
   }
 
   val outputNode = at(stages.output)

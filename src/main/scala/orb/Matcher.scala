@@ -30,7 +30,7 @@ import orb.Pipes.keptApart
   * waiting and drops, and counts, what does not fit until the consumer takes one again: the feature stream keeps
   * flowing, so later frames are still matched. */
 class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: MatcherConfig) extends Component {
-  import MatcherConfig.{crossLatency, distanceWidth, none, pushLatency, readLatency}
+  import MatcherConfig.{crossLatency, decideLatency, distanceWidth, none, pushLatency, readLatency}
   val io = new Bundle {
     val features = slave Stream (FeatureHw(f, h, d))
     val params = in(MatchParamsHw(m))
@@ -45,6 +45,10 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
   case class Entry() extends Bundle {
     val x, y = UInt(cw bits)
     val descriptor = Bits(OrbDescriptorConfig.descriptorBits bits)
+  }
+
+  case class Position() extends Bundle {
+    val x, y = UInt(cw bits)
   }
 
   /** per entry: the best live feature of this frame so far */
@@ -189,7 +193,9 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
   val scan = new Area {
     def busy: Bool = activity === Activity.SCAN
     val group = Reg(UInt(groupWidth + 1 bits)) init 0
-    val live = Reg(Entry())
+
+    /** the live feature's position (its descriptor: `compare.liveCopies`) */
+    val live = Reg(Position())
 
     /** a group is read now (`busy` and `group < groups`), a register: whether the group read now is the last one is
       * compared a clock ahead */
@@ -212,7 +218,6 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
     when(!busy) {
       live.x := item.x
       live.y := item.y
-      live.descriptor := item.descriptor
     }
     val readAddr = group.resize(groupWidth)
   }
@@ -419,11 +424,6 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
       val index = UInt(countWidth bits)
       val wins = Bool()
     }
-
-    /** a lane's keyframe position: chosen a clock after its distance, by the registered choice (see `merge`) */
-    case class Key() extends Bundle {
-      val x, y = UInt(cw bits)
-    }
     // A copy of the live descriptor per `lanesPerLiveCopy` lanes (kept apart, beside their RAMs: one copy would
     // drive all the lanes' comparisons across the chip), copied while the scan is idle as `scan.live` is, in parts,
     // each by an enable from its own copy of the idle flag (no one flag drives every bit). The flag is a clock late
@@ -457,9 +457,6 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
         out.distance := Mux(real, count, U(none, distanceWidth bits))
         out.index := index
         out.wins := wins
-        val key = Key()
-        key.x := Delay(r.entry.x, popStages)
-        key.y := Delay(r.entry.y, popStages)
         val writeUpdate = wins
       }
     case class Best() extends Bundle { val best = Lane(); val second = UInt(distanceWidth bits) }
@@ -489,30 +486,25 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
     }
     def takes(a: Best, b: Best): Bool = b.best.distance < a.best.distance
     // The lanes' results registered, then every level of the merge tree in two steps: its three comparisons
-    // registered with its halves, its choice a clock later (as the pairs' below). The keyframe positions follow a
-    // clock behind, each level's chosen by its registered choice: no comparison drives their selection (the lanes
-    // lie apart).
+    // registered with its halves, its choice a clock later (as the pairs' below). The keyframe positions are not
+    // carried: the best entry's is read back when the scan is over (`lookup`).
     val outValid = RegNext(valid) init False
     val outGroup = RegNext(group)
-    var level: Seq[(Best, Key)] = results.map(r => (RegNext(single(r.out)), RegNext(RegNext(r.key))))
+    var level: Seq[Best] = results.map(r => RegNext(single(r.out)))
     while (level.size > 1) level = level.grouped(2).map { g =>
-      val ((a, aKey), (b, bKey)) = (g(0), g(1))
-      val c = compared(a, b)
-      val chosen = RegNext(select(RegNext(a), RegNext(b), c))
-      (chosen, RegNext(Mux(RegNext(c.takeB), RegNext(bKey), RegNext(aKey))))
+      val (a, b) = (g(0), g(1))
+      RegNext(select(RegNext(a), RegNext(b), compared(a, b)))
     }.toSeq
-    val merged = level.head._1
-    val mergedKey = level.head._2
+    val merged = level.head
     val mergeLevels = 2 * log2Up(P)
     val mergedValid = Delay(outValid, mergeLevels, init = False)
     val mergedGroup = Delay(outGroup, mergeLevels)
     // Consecutive groups merged in pairs (an even group, registered, with the odd one after it): the running best
     // then takes a pair every other clock, in two steps, its comparisons registered before its choice, so that no
-    // comparison and choice of its own loop share a clock. The keys follow a clock behind, as in the tree.
+    // comparison and choice of its own loop share a clock.
     val odd = mergedGroup.lsb
-    // a scan's groups come back to back: the odd group comes the clock after the even one, its key a clock later
+    // a scan's groups come back to back: the odd group comes the clock after the even one
     val held = RegNext(merged)
-    val heldKey = RegNext(mergedKey)
     // The pair's three comparisons registered with its halves, its choice a clock later (as the running best's):
     // no choice waits for a comparison in the same clock.
     val pairing = new Area {
@@ -525,13 +517,9 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
     val pairValid = RegNext(pairing.valid) init False
     val pairLast = RegNext(pairing.last) init False
     val pair = RegNext(select(pairing.a, pairing.b, pairing.c))
-    // the keys a clock behind: the odd group's key comes a clock after its result, the choice with it
-    val pairTakes = RegNext(pairing.c.takeB)
-    val pairKey = RegNext(Mux(pairTakes, RegNext(mergedKey), RegNext(heldKey)))
     // The running best starts as "none" when a scan starts (long before its first pair arrives): the first pair
     // then takes it over in the same merge as every later one (its entry 0 is real), no choice of the first.
     val acc = Reg(Best())
-    val accKey = Reg(Key())
     // a clock after the start, from a register (no handshake decides the running best's enables); the last scan's
     // result has been pushed by then
     when(RegNext(scan.start) init False) {
@@ -549,16 +537,26 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
     when(choose.valid) {
       acc := select(acc, choose.candidate, choose.c)
     }
-    // the pair's key is a clock behind the pair: beside the choice
-    when(choose.valid && choose.c.takeB) { accKey := pairKey }
     val lastGroup = RegNext(choose.last) init False
+  }
+
+  // The best entry's keyframe position, read back when the scan is over (the positions are not carried beside the
+  // distances): its group into the scan's address a clock after the last accumulation (the scan reads nothing more
+  // and the next one starts after the decision), its lane's word into the lane's register `crossLatency` clocks
+  // later, as the sweep's (`swept`).
+  val lookup = new Area {
+    val bestLane = compare.acc.best.index.resize(log2Up(P) max 1)
+    when(compare.lastGroup) {
+      scan.group := groupOf(compare.acc.best.index, groupWidth + 1)
+    }
+    val reading = RegNext(compare.lastGroup) init False
   }
 
   // A feature's scan is over when its last group has been accumulated: accept or not, then the next feature.
   val decide = new Area {
-    // Two clocks after the last group, so that the ratio's product is registered twice before it is compared (the
-    // multiplier's own output register, then a plain one beside the comparison).
-    val done = Delay(compare.lastGroup, 2, init = False)
+    // When the best entry's position has been read back (`lookup`); the ratio's product is registered twice by then
+    // (the multiplier's own output register, then a plain one beside the comparison).
+    val done = Delay(compare.lastGroup, decideLatency, init = False)
     val emptyDone = scan.busy && groupsCompared.zero // an empty store: nothing to scan
     val a = compare.acc
     val p = frame.params
@@ -593,24 +591,31 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
   // Sweep results: each lane's cross word and position, zero unless the sweep read that lane, registered in the
   // lane `crossLatency` clocks after the read (a lane flag delayed beside the read: no lane number reaches the
   // lanes' data), then ORed into the correspondence's registers (the lanes lie apart: no selection where they meet).
+  // The scan's best entry's position (`lookup`) comes the same way.
   val swept = new Area {
     val addr = Delay(sweep.addr, crossLatency)
     val lanes =
       for ((r, l) <- reads.zipWithIndex) yield new Area {
         val here = Delay(sweep.reading && laneIs(sweep.lane, l), crossLatency, init = False)
+        val looked = Delay(lookup.reading && laneIs(lookup.bestLane, l), crossLatency, init = False)
         val emit = RegNext(here && r.cross.mutual && frame.params.crossCheck) init False
         val cross = RegNext(Mux(here, r.cross, r.cross.getZero))
-        val keyX = RegNext(Mux(here, r.keyX, U(0, cw bits)))
-        val keyY = RegNext(Mux(here, r.keyY, U(0, cw bits)))
+        val keyX = RegNext(Mux(here || looked, r.keyX, U(0, cw bits)))
+        val keyY = RegNext(Mux(here || looked, r.keyY, U(0, cw bits)))
       }
     val cross = Cross()
     cross.assignFromBits(lanes.map(_.cross.asBits).reduce(_ | _))
+
+    /** the position read (the scan's best entry's at its decision) */
+    val key = Position()
+    key.x := lanes.map(_.keyX).reduce(_ | _)
+    key.y := lanes.map(_.keyY).reduce(_ | _)
     val out = new Area {
       val emit = RegNext(lanes.map(_.emit).orR) init False
       val liveX = RegNext(cross.liveX)
       val liveY = RegNext(cross.liveY)
-      val keyX = RegNext(lanes.map(_.keyX).reduce(_ | _))
-      val keyY = RegNext(lanes.map(_.keyY).reduce(_ | _))
+      val keyX = RegNext(key.x)
+      val keyY = RegNext(key.y)
       val distance = RegNext(cross.distance)
     }
   }
@@ -623,8 +628,15 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
     val loadHere = load.write && here(load.lane)
     // the address and the write enable registers of the lane's own (kept apart: one address register would drive
     // every RAM of the store, and the enable is identical to the score word's decision below, with which synthesis
-    // would merge it: one register then drives the lane's RAM blocks and the cross state's selection apart)
-    lane.store.write(keptApart(RegNext(load.addr)), RegNext(load.entry), keptApart(RegNext(loadHere) init False))
+    // would merge it: one register then drives the lane's RAM blocks and the cross state's selection apart). The
+    // data are the live registers, the lane's copy of the descriptor: they copy the item register every clock of a
+    // keyframe (no scan runs then), and the item holds a feature for a clock after its take, so a clock after the
+    // take (an append's write) and two clocks after (a replacement's) they hold the feature taken
+    val liveEntry = Entry()
+    liveEntry.x := scan.live.x
+    liveEntry.y := scan.live.y
+    liveEntry.descriptor := compare.liveCopies(l / MatcherConfig.lanesPerLiveCopy)
+    lane.store.write(keptApart(RegNext(load.addr)), liveEntry, keptApart(RegNext(loadHere) init False))
     // the score word a clock later than the entry, its decision registered before the selection below (the rescan
     // that reads it starts later still)
     val scoreHere = keptApart(RegNext(loadHere) init False)
@@ -666,8 +678,9 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
   val sweptOut = swept.out
   beat.liveX := Mux(sweptOut.emit, sweptOut.liveX, scan.live.x)
   beat.liveY := Mux(sweptOut.emit, sweptOut.liveY, scan.live.y)
-  beat.keyX := Mux(sweptOut.emit, sweptOut.keyX, compare.accKey.x)
-  beat.keyY := Mux(sweptOut.emit, sweptOut.keyY, compare.accKey.y)
+  // the scan's key position and the sweep's come the same way
+  beat.keyX := sweptOut.keyX
+  beat.keyY := sweptOut.keyY
   beat.distance := Mux(sweptOut.emit, sweptOut.distance, compare.acc.best.distance)
   // A scan's decision never meets the sweep's last correspondence: the next item is taken `crossLatency + 2` clocks
   // after the sweep's last read at the earliest, and its scan reads the RAMs before it decides.

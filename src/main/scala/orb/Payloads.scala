@@ -40,9 +40,11 @@ case class LineColumn(f: FrameConfig, rows: Int) extends Bundle {
 }
 
 /** A smoothed pixel for the descriptor's samples: the 7x7 OpenCV Gaussian of the raw pixel 3 rows above and
-  * 3 columns left of `pixel` (the beat that completed its neighbourhood). */
+  * 3 columns left of the beat that completed its neighbourhood, with that beat's column and processed flag (what the
+  * descriptor store needs of it: the rows are counted by their starts). */
 case class SmoothedPixel(f: FrameConfig) extends Bundle {
-  val pixel = TrackedPixel(f)
+  val x = f.coord()
+  val active = Bool()
   val smoothed = UInt(8 bits)
 
   /** the pixel's position tested in the smoother, a clock ahead (the consumer's row and frame decisions then come

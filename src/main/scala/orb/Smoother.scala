@@ -56,11 +56,12 @@ class Smoother(f: FrameConfig, columnRows: Int) extends Component {
     val ROUNDED = at(Smoother.round).insert((sum(23 downto 16) +^ sum(15 downto 15)).resize(8))
   }
 
-  // The position's tests a stage before the flags they make (registered): no flag waits for a comparison.
+  // The position's tests a stage before the flags they make (registered): no flag waits for a comparison. The row
+  // is only tested (a node after the input, from its register) and not carried: the output has no use for it.
   val flags = new Area {
+    val Y_ZERO = at(1).insert(at(1)(PIXEL).y === 0)
     val tests = at(Smoother.latency - 2)
     val X_ZERO = tests.insert(tests(PIXEL).x === 0)
-    val Y_ZERO = tests.insert(tests(PIXEL).y === 0)
     val X_BLURRED = tests.insert(tests(PIXEL).x >= OrbDescriptorConfig.blurRadius)
     val n = at(Smoother.latency - 1)
     val active = n(PIXEL).active
@@ -70,7 +71,8 @@ class Smoother(f: FrameConfig, columnRows: Int) extends Component {
   }
   val out = at(Smoother.latency)
   io.smoothed.valid := out.isValid
-  io.smoothed.pixel := out(PIXEL)
+  io.smoothed.x := out(PIXEL).x
+  io.smoothed.active := out(PIXEL).active
   io.smoothed.smoothed := out(row.ROUNDED)
   io.smoothed.rowStart := out(flags.ROW_START)
   io.smoothed.frameStart := out(flags.FRAME_START)

@@ -36,10 +36,15 @@ class SmootherSpec extends AnyFunSuite {
     harness.doSim(name, seed.toInt) { dut =>
       CoreSim.idlePixels(dut.io.pixels)
       CoreSim.startClock(dut.clockDomain)
+      var row = 0 // the beat's row, counted from the frame and row starts the smoother flags
       dut.clockDomain.onSamplings {
         val s = dut.io.smoothed
-        if (s.valid.toBoolean && s.pixel.active.toBoolean) {
-          val (x, y) = (s.pixel.x.toInt - 3, s.pixel.y.toInt - 3)
+        if (s.valid.toBoolean) {
+          if (s.frameStart.toBoolean) row = 0
+          else if (s.rowStart.toBoolean) row += 1
+        }
+        if (s.valid.toBoolean && s.active.toBoolean) {
+          val (x, y) = (s.x.toInt - 3, row - 3)
           if (x >= 3 && y >= 3) {
             checked += 1
             if (s.smoothed.toInt != expected(x, y))

@@ -48,7 +48,7 @@ object TopSim {
       top.matcher.decide.done.simPublic()
       top.matcher.decide.emptyDone.simPublic()
       top.matcher.compare.acc.simPublic()
-      top.matcher.compare.accKey.simPublic()
+      top.matcher.swept.key.simPublic()
       top.matcher.scan.live.simPublic()
       top
     }
@@ -101,8 +101,8 @@ object TopSim {
           m.scan.live.x.toInt,
           m.scan.live.y.toInt,
           a.best.index.toInt,
-          m.compare.accKey.x.toInt,
-          m.compare.accKey.y.toInt,
+          m.swept.key.x.toInt,
+          m.swept.key.y.toInt,
           a.best.distance.toInt,
           a.second.toInt
         )

@@ -20,9 +20,7 @@ object Waves {
       )),
       "5 orientation" -> flat(top.core.orientation.io.oriented),
       "6 descriptors (feature stream)" -> flat(top.core.io.features),
-      "7 matcher" -> (Seq(m.activity, m.decide.done) ++ flat(m.compare.acc) ++ flat(m.scan.live).filterNot(
-        _.getBitsWidth == 256
-      )),
+      "7 matcher" -> (Seq(m.activity, m.decide.done) ++ flat(m.compare.acc) ++ flat(m.scan.live)),
       "8 correspondences" -> flat(top.io.correspondences),
       "9 registers (Avalon-MM)" -> flat(top.io.ctrl)
     )
