@@ -71,6 +71,20 @@ class ReportSpec extends AnyFunSuite {
       Set("io_a" -> 16, "io_b" -> 16, "io_product" -> 32, "clk" -> 1, "reset" -> 1))
   }
 
+  test("the resource count: a RAM's write port takes no logic, its output register no logic element") {
+    // Yosys's `proc` writes a memory's write data as "the data when enabled, else undefined": without
+    // `opt_expr -mux_undef` the generic count mapped that to a LUT per data bit, which no FPGA flow builds (the
+    // write enable is the block's own pin).
+    val dir = new File("target/report-test/count")
+    val r = Generate.spinalConfig(dir.getPath).generate(new Ecp5Proxy.RamProbe)
+    val (stat, alone) = ResourceCount.runYosys(dir, new File(dir, s"${r.toplevelName}.v"), r.toplevelName)
+    val cells = ResourceCount.total(r.toplevelName, ResourceCount.parseStat(stat))
+    // the read address, the RAM's output register, the incremented output: 10 + 16 + 16 flip-flops, 16 carry bits
+    assert(cells.luts == 0 && cells.carry == 16 && cells.ffs == 42, cells)
+    // alone: the read address (fed by a port) and the output register's copy of the RAM's data, not the RAM's own
+    assert(alone(r.toplevelName) == 10, alone)
+  }
+
   test("a seed whose reset arc to its global buffer does not route is told from any other failure") {
     val work = new File("target/report-test/reset-arc")
     work.mkdirs()
