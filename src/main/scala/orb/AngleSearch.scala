@@ -24,10 +24,11 @@ object AngleSearchState extends SpinalEnum {
 
 /** The orientation bin of (m10, m01) without a divider, as `orb.model.OrbModel.angleBin`, one corner at a time:
   * fold into the first octant (signs, swap so that b <= a), count the bin boundaries below the angle with a binary
-  * search, one comparison b 2^F >= a T_j per step, unfold. A step takes five clocks: the index it tries into a
-  * register, its tangent looked up into the multipliers' input register, a's two parts times the tangent into the
-  * products' registers, their sum, the comparison. The data path runs every clock (no enables on the multipliers'
-  * registers); only the count and the step move, once a step. `AngleSearch.clocks` from a corner's acceptance to
+  * search, one comparison b 2^F >= a T_j per step, unfold. A step takes seven clocks: the index it tries into a
+  * register, its tangent looked up in two (each half of the table, then the half) into the multipliers' input
+  * register, a's two parts times the tangent into the products' registers, their sum, the comparison into a
+  * register. The data path runs every clock (no enables on the multipliers' registers); only the count and the step
+  * move, once a step. `AngleSearch.clocks` from a corner's acceptance to
   * the next: far fewer than a descriptor takes, so the search at the descriptor unit's queue never holds the engine
   * up. */
 class AngleSearch[T <: Data](itemType: HardType[T], d: OrbDescriptorConfig) extends Component {
@@ -86,13 +87,21 @@ class AngleSearch[T <: Data](itemType: HardType[T], d: OrbDescriptorConfig) exte
     /** The table is indexed by the index's low bits only (`tableBits`): an index past the octant is never tried,
       * so its entry does not matter, and the lookup is a function of fewer bits (fewer logic levels). */
     val tableBits = log2Up(m)
+    require(tableBits >= 1, "two bins per octant at least")
     def entry(j: Int): Long = tangents(j min (m - 1))
-    val table = Vec((0 until (1 << tableBits)).map(j => U(entry(j), tWidth bits)))
     val index = RegNext(tried)
+    // the lookup in two clocks: each half of the table on the index's lower bits into a register, then the half its
+    // top bit names (a few logic levels before either register, none after the multipliers' input register)
+    val halfBits = tableBits - 1
+    val halves = (0 until 2).map { h =>
+      val entries = (0 until (1 << halfBits)).map(j => U(entry((h << halfBits) | j), tWidth bits))
+      RegNext(if (halfBits == 0) entries.head else Vec(entries)(index(halfBits - 1 downto 0)))
+    }
+    val upper = RegNext(index(tableBits - 1))
     // a's copy and the tangent feed only the multipliers (their input registers), kept apart so that neither is
     // merged with a twin that feeds more than multipliers
     val aForProducts = keptApart(RegNext(fold.a))
-    val tangent = keptApart(RegNext(table(index(tableBits - 1 downto 0))))
+    val tangent = keptApart(RegNext(Mux(upper, halves(1), halves(0))))
     val trying = RegNext(index < m && fold.aNonZero)
     val lo = RegNext(aForProducts(loWidth - 1 downto 0) * tangent)
     val hi = RegNext(aForProducts(momentWidth - 1 downto loWidth) * tangent)
@@ -112,7 +121,7 @@ class AngleSearch[T <: Data](itemType: HardType[T], d: OrbDescriptorConfig) exte
     val fraction = fractionHalves.reduce(_ || _)
     // b >= whole + fraction, as 2b + 1 > 2 whole + fraction: one comparison
     val cw = (momentWidth max whole.getWidth) + 1
-    val takes = trying && ((fold.b.resize(cw - 1) @@ True) > (whole.resize(cw - 1) @@ fraction))
+    val takes = RegNext(trying && ((fold.b.resize(cw - 1) @@ True) > (whole.resize(cw - 1) @@ fraction)))
     val lastStep = step.lsb
   }
 
@@ -191,8 +200,8 @@ object AngleSearch {
   /** the fold's registers behind the moments' */
   val foldClocks: Int = 3
 
-  /** a step's clocks: the index, the lookup, the products, their sum, the comparison */
-  val clocksPerStep: Int = 5
+  /** a step's clocks: the index, the lookup (two), the products, their sum, the comparison, its register */
+  val clocksPerStep: Int = 7
 
   /** the steps tried, largest first: m, m/2, .., 1 for m = binsPerOctant a power of two (else from the largest power
     * of two below m; an index past the octant is never taken) */

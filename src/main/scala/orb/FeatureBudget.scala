@@ -160,8 +160,10 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
         keptApart(RegNext(lined.corner))
       }
 
-      /** its rank, one copy per list (kept apart): each feeds place 0 of one list */
-      val ranks = lined.ranks.map(r => keptApart(RegNext(r)))
+      /** its rank, one copy per bank (kept apart), as the corner */
+      val ranks = (0 until 2).map { _ =>
+        keptApart(RegNext(lined.rank))
+      }
       val rank = RegNext(lined.rank)
 
       /** its list, one-hot over (bank, cell) */
@@ -260,7 +262,7 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
         advances.foreach(_ := advancesNext)
         fresh.xOffset := compared.corners(bank).x.resize(b.cellShift)
         fresh.yOffset := compared.corners(bank).y.resize(b.bandShift)
-        fresh.rank := compared.ranks(l)
+        fresh.rank := compared.ranks(bank)
         // place i moves on when the freed place is i or after it: in a list that is not full the first empty one
         // (the places before it are full), in a full one the weakest; decided with the comparisons into registers
         // (the list does not change in between: the corner before it wrote a clock earlier)

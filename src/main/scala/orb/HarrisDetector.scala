@@ -172,13 +172,19 @@ class HarrisDetector(f: FrameConfig, h: HarrisConfig, columnRows: Int, stages: H
     val arcNode = at(stages.segmentArc)
     new Area {
       // the window in two bands of rows (row indices 1 .. split and split + 1 .. 7), each shifted by a copy of the
-      // node's valid of its own: one register would enable all 448 bits of the window
+      // node's valid of its own: one register would enable all 448 bits of the window. At the Sobel's node its
+      // first three columns are the Sobel's (x, x - 1, x - 2), and the bands start from its last.
       val split = 4
-      val upper = lastValid(Vec(compareNode(COLUMN).slice(1, split + 1)), 8, validCopy(stages.segmentCompare))
-      val lower = lastValid(Vec(compareNode(COLUMN).slice(split + 1, 8)), 8, validCopy(stages.segmentCompare))
+      val shared = if (stages.segmentCompare == stages.sobel) 2 else 0
+      val first: Vec[UInt] = if (shared > 0) sobel.cols(shared) else compareNode(COLUMN)
+      val upper = lastValid(Vec(first.slice(1, split + 1)), 8 - shared, validCopy(stages.segmentCompare))
+      val lower = lastValid(Vec(first.slice(split + 1, 8)), 8 - shared, validCopy(stages.segmentCompare))
 
       /** column x - j, row index i + 1 */
-      def win(j: Int, i: Int): UInt = if (i < split) upper(j)(i) else lower(j)(i - split)
+      def win(j: Int, i: Int): UInt =
+        if (j < shared) sobel.cols(j)(i + 1)
+        else if (i < split) upper(j - shared)(i)
+        else lower(j - shared)(i - split)
       def px(dx: Int, dy: Int): UInt = win(4 - dx, 3 - dy) // dy > 0 is down, a newer row
       // centre + t and centre - t, registered a beat ahead from the pixel that becomes the centre (the window
       // advances with valid pixels), so that no adder lies before the 32 comparisons; a copy of each per arc of
