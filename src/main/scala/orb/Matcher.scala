@@ -155,7 +155,6 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
     val replace = metFull && stronger
     val write = append || replace
     val index = Mux(replace, weakest.index, storedNow)
-    val entry = Entry(); entry.x := item.x; entry.y := item.y; entry.descriptor := item.descriptor
     val lane = index.resize(log2Up(P) max 1)
     val addr = groupOf(index, groupWidth)
     val overflow = meetsFull
