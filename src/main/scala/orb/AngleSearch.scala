@@ -69,7 +69,9 @@ class AngleSearch[T <: Data](itemType: HardType[T], d: OrbDescriptorConfig) exte
     val swap = RegNext(ay > ax)
     val a = RegNext(Mux(swap, ay, ax))
     val b = RegNext(Mux(swap, ax, ay))
-    val aNonZero = RegNext(Mux(swap, ay, ax) =/= 0)
+    // a = max(|m10|, |m01|) is not zero when either moment is not: tested on the moments in parts, then joined
+    val nonZeroParts = RegNext(Vec(Seq(m10, m01).flatMap(_.asBits.subdivideIn(2 slices, strict = false)).map(_ =/= 0)))
+    val aNonZero = RegNext(nonZeroParts.asBits.orR)
   }
 
   /** the clocks of an activity that lasts more than one */

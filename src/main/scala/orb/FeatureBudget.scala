@@ -332,18 +332,24 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
   // A band is complete at the first pixel of row (band end + emitRowOffset); its winners leave in raster order.
   val emission = new Area {
     // the stream position registered on the way in (the line buffer lies apart; kept apart from the detector's
-    // identical stage register), and whether it triggers a band compared a clock ahead into a register (the
-    // trigger holds the frame end too): the band starts two clocks after its row's first pixel reaches the budget
-    // (its corners came rows before; the frame's end comes after the detector's latency)
+    // identical stage register), its row start and its row's tests registered apart, and whether they trigger a
+    // band joined a clock ahead into a register (the trigger holds the frame end too): the band starts three clocks
+    // after its row's first pixel reaches the budget (`FeatureBudget.emissionClocks`; its corners came rows before,
+    // the frame's end comes after the detector's latency)
     val p = new Area {
       val valid = keptApart(RegNext(io.pixels.valid) init False)
       val x = keptApart(RegNext(io.pixels.x))
       val y = keptApart(RegNext(io.pixels.y))
       val active = keptApart(RegNext(io.pixels.active))
     }
-    val rowStart = p.valid && p.x === 0 && p.active
-    val sinceEnd = p.y - b.emitRowOffset
-    val triggers = rowStart && p.y >= b.cellHeight + b.emitRowOffset && sinceEnd(b.bandShift - 1 downto 0) === 0
+    // a band ends every cellHeight rows: y - emitRowOffset is a multiple of it where y's low bits are the offset's
+    val endsBand = p.y >= b.cellHeight + b.emitRowOffset &&
+      p.y(b.bandShift - 1 downto 0) === (b.emitRowOffset % b.cellHeight)
+    val rowStart = RegNext(p.valid && p.x === 0 && p.active) init False
+    val rowEndsBand = RegNext(endsBand) init False
+    val rowY = RegNext(p.y)
+    val sinceEnd = rowY - b.emitRowOffset
+    val triggers = rowStart && rowEndsBand
     // kept apart: the frame end's copies of the same register (`Firing.triggered`) would otherwise absorb it, and
     // one of them then drive every list's moves from across the block
     val trigger = keptApart(RegNext(triggers) init False)
@@ -720,7 +726,7 @@ object FeatureBudget {
     * ended, exactly: the row's registers and the trigger, the lists settling, the pace's start, `choiceDepth` to the
     * first winner's step, a pace per winner and one for the empty choice that ends it, a clock to see it. */
   def emissionClocks(winners: Long, places: Int): Long =
-    2 + settleClocks(places) + 1 + choiceDepth + winners * winnerClocks + 1
+    3 + settleClocks(places) + 1 + choiceDepth + winners * winnerClocks + 1
 
   /** cells of a bank emptied by one copy of the frame end's firing */
   val cellsPerFiring: Int = 8

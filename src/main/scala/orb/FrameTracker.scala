@@ -82,8 +82,9 @@ class FrameTracker(c: FrameConfig) extends Component {
     val eol = keptApart(RegNext(io.pixels.eol))
   }
 
-  /** the width side (x, the line's width), the height side (y), the frame's flags and counts, the output */
-  val xSide, ySide, flagSide, outSide = new BeatKind
+  /** the column side (x), the width side (the line's width and x's comparisons with it), the height side (y), the
+    * frame's flags and counts, the output: each its own copies, so no decoded beat drives more than a side */
+  val xSide, wSide, ySide, flagSide, outSide = new BeatKind
 
   /** The frame so far is good and would lock the geometry if a start of frame came now: in a frame, no fault, at
     * the start of a line after at least one line, and completed if processed. Kept in registers from the state's
@@ -175,11 +176,41 @@ class FrameTracker(c: FrameConfig) extends Component {
     }
   }
 
-  // The width side: x and the line's width, with their comparisons.
+  // The column side: x, its increment and its own tests.
   when(xSide.opens) {
-    val l = learntX
     known.xMax := False
     when(xSide.eol) {
+      // the next line, x = 0
+      x := 0
+      xPlusOne := 1
+      known.xZero := True
+    } otherwise {
+      // x = 1 on the first line
+      x := 1
+      xPlusOne := 2
+      known.xZero := False
+    }
+  }
+  when(xSide.runs) {
+    when(xSide.eol) {
+      // the next line: x = 0
+      x := 0
+      xPlusOne := 1
+      known.xZero := True
+      known.xMax := False
+    } elsewhen (!known.xMax) {
+      // the next pixel of the line: x one more (saturating at maxWidth)
+      x := xPlusOne
+      xPlusOne := xPlusOne + 1
+      known.xZero := False
+      known.xMax := x === c.maxWidth - 1
+    }
+  }
+
+  // The width side: the line's width and x's comparisons with it.
+  when(wSide.opens) {
+    val l = learntX
+    when(wSide.eol) {
       // the next line, x = 0: the width is the locked one, or learnt as 1
       widthKnown := True
       lineW := Mux(l, lineW, U(1, cw bits))
@@ -190,9 +221,6 @@ class FrameTracker(c: FrameConfig) extends Component {
       known.remW := Mux(l, lineW, U(1, cw bits)).resize(remWidth).asSInt
       known.wOver := l && known.lineW0
       known.wLast := !l || known.lineW1
-      x := 0
-      xPlusOne := 1
-      known.xZero := True
     } otherwise {
       // x = 1 on the first line, against the locked width or the limits
       widthKnown := l
@@ -206,13 +234,10 @@ class FrameTracker(c: FrameConfig) extends Component {
       known.remW := Mux(l, known.lineWm1, U(c.maxWidth - 1, cw bits)).resize(remWidth).asSInt
       known.wOver := l && (known.lineW0 || known.lineW1)
       known.wLast := l && known.lineW2
-      x := 1
-      xPlusOne := 2
-      known.xZero := False
     }
   }
-  when(xSide.runs) {
-    when(xSide.eol) {
+  when(wSide.runs) {
+    when(wSide.eol) {
       // the next line: x = 0 against the (possibly learnt) width
       val keep = running.keep
       widthKnown := running.knownAfter
@@ -228,21 +253,11 @@ class FrameTracker(c: FrameConfig) extends Component {
         .asSInt
       known.wOver := running.knownAfter && keep && known.lineW0
       known.wLast := running.knownAfter && Mux(keep, known.lineW1, known.xZero)
-      x := 0
-      xPlusOne := 1
-      known.xZero := True
-      known.xMax := False
-    } otherwise {
-      // the next pixel of the line: x one more (saturating at maxWidth)
-      when(!known.xMax) {
-        x := xPlusOne
-        xPlusOne := xPlusOne + 1
-        known.remW := known.remW - 1
-        known.wOver := known.remW <= 1
-        known.wLast := known.remW === 2
-        known.xZero := False
-        known.xMax := x === c.maxWidth - 1
-      }
+    } elsewhen (!known.xMax) {
+      // the next pixel of the line: one fewer to the limit
+      known.remW := known.remW - 1
+      known.wOver := known.remW <= 1
+      known.wLast := known.remW === 2
     }
   }
 

@@ -56,22 +56,28 @@ class OrientationUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, c
     val T = Vec(heights.map(dh => Delay(t(dh).asUInt.resize(columnSumWidth), latency - 1 - tLatency)))
     val TV = Vec(heights.map(dh => tv(dh - 1).resize(weightedSumWidth)))
     // the column stream's valid and position delayed by registers of this block's own (`Pipes.delayApart`)
-    val validAhead = delayApart(io.columns.valid, latency - 1, init = False)
+    require(latency >= 3)
+    val validFirst = keptApart(RegNext(io.columns.valid) init False)
+    val pixelFirst = keptApart(RegNext(io.columns.pixel))
+    val validAhead = delayApart(validFirst, latency - 2, init = False)
     val valid = keptApart(RegNext(validAhead) init False)
 
     /** a copy of `valid` (its last register kept apart) for a consumer apart from the chains */
     def validCopy(): Bool = keptApart(RegNext(validAhead) init False)
     // the beat's pixel beside its sums, and a clock before (the head is compared with it a clock ahead)
-    val pixelAhead = delayApart(io.columns.pixel, latency - 1)
+    val pixelAhead = delayApart(pixelFirst, latency - 2)
     val pixel = RegNext(pixelAhead)
     val x = pixel.x
     val y = pixel.y
     val active = pixel.active
     val keyframe = pixel.keyframe
     val end = pixel.end
-    // compared at the input and delayed with the beat: a register, not a comparison, where it is used
-    val frameStart =
-      Delay(io.columns.valid && io.columns.pixel.x === 0 && io.columns.pixel.y === 0, latency, init = False)
+    // tested from the first registers of the beat's delay (the line buffer's register lies apart), the column and the
+    // row apart, and delayed with the beat: a register, not a comparison, where it is used
+    val xZero = RegNext(pixelFirst.x === 0)
+    val yZero = RegNext(pixelFirst.y === 0)
+    val validSecond = RegNext(validFirst) init False
+    val frameStart = Delay(validSecond && xZero && yZero, latency - 2, init = False)
     // the row's start compared a clock ahead, from the registers before `valid` and `pixel`; only processed rows
     // count, as on the descriptor unit's ring (a corner's tags name rows the ring counts)
     val rowStart = RegNext(validAhead && pixelAhead.x === 0 && pixelAhead.active) init False
