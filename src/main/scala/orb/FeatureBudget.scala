@@ -347,15 +347,15 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
       p.y(b.bandShift - 1 downto 0) === (b.emitRowOffset % b.cellHeight)
     val rowStart = RegNext(p.valid && p.x === 0 && p.active) init False
     val rowEndsBand = RegNext(endsBand) init False
-    val rowY = RegNext(p.y)
-    val sinceEnd = rowY - b.emitRowOffset
+    // the row's band number counted from the emission rows (one subtraction a clock: this one, then the band's)
+    val sinceEnd = RegNext((p.y - b.emitRowOffset)(f.coordWidth - 1 downto b.bandShift))
     val triggers = rowStart && rowEndsBand
     // kept apart: the frame end's copies of the same register (`Firing.triggered`) would otherwise absorb it, and
     // one of them then drive every list's moves from across the block
     val trigger = keptApart(RegNext(triggers) init False)
 
     /** the band that ends `emitRowOffset` rows before the triggering row */
-    val band = RegNext(sinceEnd(f.coordWidth - 1 downto b.bandShift) - 1)
+    val band = RegNext(sinceEnd - 1)
     val busy = Reg(Bool()) init False
     // one winner every `FeatureBudget.winnerClocks`: the histogram's read-modify-write of a RAM word takes that long
     val pace = Reg(UInt(log2Up(FeatureBudget.winnerClocks) bits)) init 0

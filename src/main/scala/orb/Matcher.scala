@@ -155,8 +155,17 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
     val replace = metFull && stronger
     val write = append || replace
     val index = Mux(replace, weakest.index, storedNow)
-    val lane = index.resize(log2Up(P) max 1)
     val addr = groupOf(index, groupWidth)
+    // Each lane's write decided from registers of the lanes the count and the weakest name, a clock behind them:
+    // the count changes only as a feature is taken (items at least two clocks apart), the weakest at the latest as
+    // a take's clock begins, and a replacement is decided a clock after its take; so no index is chosen and
+    // compared on the way to a lane's enable.
+    val laneBits = log2Up(P) max 1
+    val storedLanes = Vec((0 until P).map(l => RegNext(laneIs(stored.resize(laneBits), l)) init Bool(l == 0)))
+    val weakestLanes = Vec((0 until P).map(l => RegNext(laneIs(weakest.index.resize(laneBits), l)) init Bool(l == 0)))
+
+    /** `write` for lane `l` (its index's lane is `l`): an append and a replacement never come in the same clock */
+    def writes(l: Int): Bool = (append && Mux(emptied, Bool(l == 0), storedLanes(l))) || (replace && weakestLanes(l))
     val overflow = meetsFull
     when(item.fire && frame.first && isKey) { stored := 0 }
     when(append) {
@@ -623,8 +632,7 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
   // writes are registered on their way to the RAMs (address, data and enable), so no decision reaches a RAM in the
   // clock it is made; nothing reads a word in the clock after it is decided (the rescan starts a clock late).
   for ((lane, l) <- lanes.zipWithIndex) {
-    def here(sel: UInt): Bool = laneIs(sel, l)
-    val loadHere = load.write && here(load.lane)
+    val loadHere = load.writes(l)
     // the address and the write enable registers of the lane's own (kept apart: one address register would drive
     // every RAM of the store, and the enable is identical to the score word's decision below, with which synthesis
     // would merge it: one register then drives the lane's RAM blocks and the cross state's selection apart). The
