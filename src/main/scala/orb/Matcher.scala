@@ -153,7 +153,6 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
     val metFull = RegNext(meetsFull) init False
     val stronger = RegNext(item.score > weakest.score) init False
     val replace = metFull && stronger
-    val write = append || replace
     val index = Mux(replace, weakest.index, storedNow)
     val addr = groupOf(index, groupWidth)
     // Each lane's write decided from registers of the lanes the count and the weakest name, a clock behind them:
@@ -164,7 +163,7 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
     val storedLanes = Vec((0 until P).map(l => RegNext(laneIs(stored.resize(laneBits), l)) init Bool(l == 0)))
     val weakestLanes = Vec((0 until P).map(l => RegNext(laneIs(weakest.index.resize(laneBits), l)) init Bool(l == 0)))
 
-    /** `write` for lane `l` (its index's lane is `l`): an append and a replacement never come in the same clock */
+    /** a write (an append or a replacement) for lane `l`: the two never come in the same clock */
     def writes(l: Int): Bool = (append && Mux(emptied, Bool(l == 0), storedLanes(l))) || (replace && weakestLanes(l))
     val overflow = meetsFull
     when(item.fire && frame.first && isKey) { stored := 0 }
