@@ -20,11 +20,18 @@ import scala.sys.process._
   *    registers and multiplier registers; memories marked `no_rw_check` for Quartus are marked for yosys too;
   *  - flip-flop outputs keep their names through LUT mapping, so the critical path names the registers;
   *  - every seed either routes (its Fmax is nextpnr's routed figure) or is reported unroutable: when routing stops
-  *    improving, or runs out of time; a placement estimate is never reported as a frequency. */
+  *    improving, or runs out of time; a placement estimate is never reported as a frequency;
+  *  - placement by nextpnr's electrostatic placer (`static`), which spreads the cells by density as the analytic
+  *    placers of the vendors' tools do; HeAP, nextpnr's default, packs the core into the middle of a chip it fills
+  *    to 28 %, and some seeds then do not route for congestion there (`--placer heap` in `orb.Report` shows it). */
 object Ecp5Proxy {
   val yowaspYosys = "0.70.0.0.post1259"
   val yowaspNextpnr = "0.11.1.0.post826"
-  val device = "Lattice ECP5 LFE5U-85F speed 6 (nextpnr router2), in a registered wrapper"
+
+  /** the placers `orb.Report --placer` offers; the first is the default */
+  val placers: Seq[String] = Seq("static", "heap")
+  def device(placer: String): String =
+    s"Lattice ECP5 LFE5U-85F speed 6 (nextpnr placer $placer, router2), in a registered wrapper"
   val defaultSeeds: Seq[Int] = Seq(1, 2, 3)
 
   /** a congested design plateaus at a high overuse: no better one in `stallIters` router iterations (after the
@@ -269,8 +276,10 @@ object Ecp5Proxy {
       seeds: Seq[Int],
       minutes: Int,
       targetMhz: Double,
+      placer: String,
       pack: Boolean = true
   ): Timing = {
+    require(placers.contains(placer), s"unknown placer $placer")
     val bin = tools()
     val work = new File(dir, s"ecp5/$module" + (if (pack) "" else "_unpacked"))
     val started = System.nanoTime()
@@ -290,14 +299,14 @@ object Ecp5Proxy {
     // on that one arc at once, before any congestion: a limit of the router at the buffer's input, not of the
     // design) is replaced by seed + `Ecp5Proxy.replacementSeedOffset`, and the run says so.
     val runs = seeds.map { seed =>
-      val run = placeAndRoute(bin, work, env, module, seed, minutes, targetMhz)
+      val run = placeAndRoute(bin, work, env, module, seed, minutes, targetMhz, placer)
       if (run.routed || !resetArcFailed(work, seed)) run
       else {
         val replacement = seed + replacementSeedOffset
         println(
           s"${Report.app}: $module: seed $seed: the reset's arc to its global buffer did not route; seed $replacement instead"
         )
-        val r = placeAndRoute(bin, work, env, module, replacement, minutes, targetMhz)
+        val r = placeAndRoute(bin, work, env, module, replacement, minutes, targetMhz, placer)
         r.copy(outcome =
           s"${r.outcome}, in place of seed $seed (whose reset arc to its global buffer nextpnr could not route)"
         )
@@ -348,7 +357,8 @@ object Ecp5Proxy {
       module: String,
       seed: Int,
       minutes: Int,
-      targetMhz: Double
+      targetMhz: Double,
+      placer: String
   ): Run = {
     val started = System.nanoTime()
     val log = new File(work, s"nextpnr_seed$seed.log")
@@ -374,6 +384,8 @@ object Ecp5Proxy {
         "packed.json",
         "--freq",
         f"$targetMhz%.0f",
+        "--placer",
+        placer,
         "--router",
         "router2",
         "--timing-allow-fail",

@@ -7,7 +7,7 @@ import scala.collection.mutable
 import scala.sys.process._
 
 /** `runMain orb.Report --out DIR [--config NAME] [--no-timing] [--block-timing] [--seeds N] [--calibrate]
-  * [--timing-minutes N]`: what the core costs on the Cyclone II EP2C70, and how fast it routes on the proxy.
+  * [--timing-minutes N] [--placer static|heap]`: what the core costs on the Cyclone II EP2C70, and how fast it routes on the proxy.
   *
   *  - memories: every RAM/ROM of the design, depth x width, mapped to the best M4K shape (from the design itself);
   *  - logic: the Verilog through Yosys with generic cells (`resources/orb/report/flow.ys`): 4-input LUTs, one
@@ -33,7 +33,9 @@ object Report {
        |  --calibrate          also time a one-RAM and a one-multiplier design with and without register packing
        |  --only NAMES         time only these (comma-separated: core, or block names as in report.json, e.g.
        |                       core.harris,matcher)
-       |  --timing-minutes N   a seed whose routing has not finished after N minutes is unroutable (default 30)""".stripMargin
+       |  --timing-minutes N   a seed whose routing has not finished after N minutes is unroutable (default 30)
+       |  --placer NAME        nextpnr's placer: ${Ecp5Proxy.placers.mkString(" or ")} (default ${Ecp5Proxy.placers
+        .head})""".stripMargin
 
   /** The EP2C70 (DE2-70). */
   object Device { val name = "EP2C70F896C6"; val les = 68416; val m4k = 250; val multipliers = 150 }
@@ -46,7 +48,8 @@ object Report {
       seeds: Int = 3,
       calibrate: Boolean = false,
       minutes: Int = 30,
-      only: Seq[String] = Nil
+      only: Seq[String] = Nil,
+      placer: String = Ecp5Proxy.placers.head
   )
 
   /** the blocks as report.json names them */
@@ -77,7 +80,12 @@ object Report {
         o.copy(only = names)
       },
       valued("--seeds")((o, v) => o.copy(seeds = CommandLine.positive("--seeds", v))),
-      valued("--timing-minutes")((o, v) => o.copy(minutes = CommandLine.positive("--timing-minutes", v)))
+      valued("--timing-minutes")((o, v) => o.copy(minutes = CommandLine.positive("--timing-minutes", v))),
+      valued("--placer") { (o, v) =>
+        if (!Ecp5Proxy.placers.contains(v))
+          CommandLine.fail(s"unknown --placer '$v' (known: ${Ecp5Proxy.placers.mkString(", ")})")
+        o.copy(placer = v)
+      }
     )
   }
 
@@ -161,8 +169,8 @@ object Report {
         val v = new File(probes, s"${r.toplevelName}.v")
         (
           what,
-          Ecp5Proxy.timing(dir, v, r.toplevelName, seeds, o.minutes, blockGoalMhz, pack = false),
-          Ecp5Proxy.timing(dir, v, r.toplevelName, seeds, o.minutes, blockGoalMhz)
+          Ecp5Proxy.timing(dir, v, r.toplevelName, seeds, o.minutes, blockGoalMhz, o.placer, pack = false),
+          Ecp5Proxy.timing(dir, v, r.toplevelName, seeds, o.minutes, blockGoalMhz, o.placer)
         )
     }
   }
@@ -199,11 +207,11 @@ object Report {
     val seeds = 1 to o.seeds
     def wanted(n: String) = if (o.only.nonEmpty) o.only.contains(n) else n == "core" || o.blockTiming
     val coreTime = if (o.timing && wanted("core"))
-      Some(Ecp5Proxy.timing(dir, verilog, report.toplevelName, seeds, o.minutes, coreGoalMhz))
+      Some(Ecp5Proxy.timing(dir, verilog, report.toplevelName, seeds, o.minutes, coreGoalMhz, o.placer))
     else None
     val blockTimes = if (o.timing) instances.collect {
       case (n, c) if wanted(n) =>
-        n -> Ecp5Proxy.timing(dir, verilog, c.definitionName, seeds, o.minutes, blockGoalMhz)
+        n -> Ecp5Proxy.timing(dir, verilog, c.definitionName, seeds, o.minutes, blockGoalMhz, o.placer)
     }.toMap
     else Map.empty[String, Ecp5Proxy.Timing]
     val calibrated = if (o.timing && o.calibrate) calibration(dir, o, seeds) else Nil
@@ -260,7 +268,7 @@ object Report {
         ),
         "timing" -> (if (!o.timing) None
                      else Some(Json.obj(
-                       "proxy" -> s"${Ecp5Proxy.device}: for comparing variants, not Cyclone II timing",
+                       "proxy" -> s"${Ecp5Proxy.device(o.placer)}: for comparing variants, not Cyclone II timing",
                        "seeds" -> seeds,
                        "core_goal_mhz" -> coreGoalMhz,
                        "block_goal_mhz" -> blockGoalMhz,
@@ -304,7 +312,7 @@ object Report {
     md ++= "\n## Timing proxy\n\n"
     md ++= (if (!o.timing) "Not run (--no-timing).\n"
             else {
-              s"${Ecp5Proxy.device}; seeds ${seeds.mkString(", ")}; a proxy for comparing variants, not Cyclone II timing.\n\n" +
+              s"${Ecp5Proxy.device(o.placer)}; seeds ${seeds.mkString(", ")}; a proxy for comparing variants, not Cyclone II timing.\n\n" +
                 coreTime.fold("")(c => s"* whole core: ${timingLine(c, coreGoalMhz)}\n") +
                 instances.flatMap { case (n, _) =>
                   blockTimes.get(n).map(t => s"* $n alone: ${timingLine(t, blockGoalMhz)}\n")

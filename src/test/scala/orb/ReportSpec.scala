@@ -16,6 +16,9 @@ class ReportSpec extends AnyFunSuite {
     assert(Report.parse(Seq("--seeds", "0")).left.exists(_.contains("positive whole number")))
     assert(Report.parse(Seq("--seeds")) == Left("--seeds needs a value"))
     assert(Report.parse(Seq("--fast")).left.exists(_.contains("unknown argument '--fast'")))
+    assert(Report.parse(Seq("--placer", "heap")) == Right(Report.Options(placer = "heap")))
+    assert(Report.Options().placer == "static")
+    assert(Report.parse(Seq("--placer", "sa")).left.exists(_.contains("unknown --placer 'sa'")))
   }
 
   test("the proxy's wrapper synthesises, and plain registers move into the RAM and multiplier blocks") {
