@@ -422,6 +422,9 @@ case class MatcherConfig(
 
 object MatcherConfig {
 
+  /** RAMs per lane of the store: each holds a slice of every entry, read through its own address register */
+  val storeParts: Int = 2
+
   /** Hamming distances 0..256, and 257 for "none" (no second entry; no live feature yet) */
   val distanceWidth: Int = log2Up(OrbDescriptorConfig.descriptorBits + 2)
   val none: Int = OrbDescriptorConfig.descriptorBits + 1

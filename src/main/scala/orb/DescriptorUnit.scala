@@ -641,8 +641,9 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
     /** a corner may start: the front end has fetched the previous corner's groups and the next slot is free */
     val canBegin = !fetch.valid && slots.map(s => s.takesNext && s.state === EngineState.IDLE).orR
 
-    /** no corner in the engine */
-    val idle = !fetch.valid && slots.map(_.state === EngineState.IDLE).reduce(_ && _)
+    /** no corner in the engine, a clock late (registered: the frame end it lets out then waits a clock more, and
+      * no corner starts in the clock before a frame end is at the queue's head, which takes clocks after a start) */
+    val idle = RegNext(!fetch.valid && slots.map(_.state === EngineState.IDLE).reduce(_ && _)) init True
 
     /** The pattern as magnitudes and signs: the multipliers see only non-negative operands (no sign extension). */
     val pattern = new Area {
@@ -1054,16 +1055,22 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
       val firsts = RegNext(first)
       val seconds = RegNext(second)
       val reads8 = delayed(r)
+      // the comparisons registered before a test's result is chosen (its own, or the one held from an earlier clock
+      // of the group): no comparison's carry chain reaches the slots' descriptors
+      val less = RegNext(Vec((0 until testsPerGroup).map(t => firsts(t) < seconds(t))))
+      val reads9 = delayed(reads8)
       val bits = Reg(Bits(testsPerGroup bits))
-      val results = Vec((0 until testsPerGroup).map(t => Mux(reads8.completes(t), firsts(t) < seconds(t), bits(t))))
-      when(reads8.valid) {
+      val results = Vec((0 until testsPerGroup).map(t => Mux(reads9.completes(t), less(t), bits(t))))
+      when(reads9.valid) {
         bits := results.asBits
       }
-      // a slot's group complete (`reads8` valid, last and of that slot), decided beside `reads8` into copies of its
+      // a slot's group complete (`reads9` valid, last and of that slot), decided beside `reads9` into copies of its
       // own (kept apart), each enabling a part of the slot's descriptor
       for (s <- slots) {
         val enables = Seq.fill(1 + DescriptorUnit.collectCopies) {
-          keptApart(RegNext(r.valid && r.last && r.tag === Bool(s.tag) && !abandons(r.tag)) init False)
+          keptApart(
+            RegNext(reads8.valid && reads8.last && reads8.tag === Bool(s.tag) && !abandons(reads8.tag)) init False
+          )
         }
         s.collected(results.asBits, enables)
       }
@@ -1175,7 +1182,7 @@ object DescriptorUnit {
 
   /** Clocks from a corner's last read issue to its finished descriptor: the reads, the comparison and the
     * collection. */
-  val backLatency: Int = 11
+  val backLatency: Int = 12
 
   /** Clocks from a corner's start to its finished descriptor beyond its read issues, with no earlier group ahead of
     * it in the front end. */

@@ -7,29 +7,31 @@ import Arith._
 import orb.Pipes.keptApart
 
 /** Where each step of the detector sits in its pipeline (node index); a later node means more registers in
-  * between. Steps of one node share a clock; the default registers the input column (it comes from the line
-  * buffer's RAM, across the chip), puts a register after every adder tree and multiplier, and gives the gradients
+  * between. Steps of one node share a clock; the default registers the input column twice (it comes from the
+  * line buffer's RAM, which the smoother and the orientation unit share: one register may lie by the RAM, the
+  * other by the Sobel adders), puts a register after every adder tree and multiplier, and gives the gradients
   * two registers before the products (the second becomes the multiplier block's input register, the first stays
   * beside the Sobel adders, so no adder drives the long wires to the multipliers) and the products two after them
   * (the first is the multiplier block's output register, the second lies beside the adders that take them). */
 case class HarrisStages(
-    sobel: Int = 1,
-    sobelDiff: Int = 2,
-    products: Int = 4,
-    columnPre: Int = 6,
-    columnMid: Int = 7,
-    columnSum: Int = 8,
-    rowPre: Int = 9,
-    rowMid: Int = 10,
-    rowSum: Int = 11,
-    trace: Int = 12,
-    multiply: Int = 14,
-    kTrace: Int = 16,
-    response: Int = 17,
-    suppressRead: Int = 18,
+    sobel: Int = 2,
+    sobelDiff: Int = 3,
+    products: Int = 5,
+    columnPre: Int = 7,
+    columnMid: Int = 8,
+    columnSum: Int = 9,
+    rowPre: Int = 10,
+    rowMid: Int = 11,
+    rowSum: Int = 12,
+    trace: Int = 13,
+    multiply: Int = 15,
+    kTrace: Int = 17,
+    response: Int = 18,
+    score: Int = 19,
+    suppressRead: Int = 20,
     suppressParts: Int = 3,
-    segmentCompare: Int = 1,
-    segmentArc: Int = 2
+    segmentCompare: Int = 2,
+    segmentArc: Int = 3
 ) {
   private val order = Seq(
     sobel,
@@ -45,6 +47,7 @@ case class HarrisStages(
     multiply,
     kTrace,
     response,
+    score,
     suppressRead
   )
   require(
@@ -293,13 +296,18 @@ class HarrisDetector(f: FrameConfig, h: HarrisConfig, columnRows: Int, stages: H
     val DET = insert(multiply.XXYY.intoSInt.resize(h.detWidth) - multiply.XY2.intoSInt.resize(h.detWidth))
   }
 
+  // The response, then the score a node later: the response's sign (the end of its carry chain) and the segment
+  // test reach the score's clearing from registers.
   val responseNode = at(stages.response)
+  val scoreNode = at(stages.score)
   val response = new responseNode.Area {
-    val r = kTrace.DET.resize(h.responseWidth) - kTrace.KTR2.intoSInt.resize(h.responseWidth)
-    val shifted = floorShift(r, h.scoreShift)
+    val R = insert(kTrace.DET.resize(h.responseWidth) - kTrace.KTR2.intoSInt.resize(h.responseWidth))
     // A pixel that fails the segment test scores 0: it can neither be a corner nor suppress a neighbour.
-    val candidate = segment.fold(True)(seg => !control.segmentTest || seg.PASSES)
-    val SCORE = insert(Mux(shifted.sign || !candidate, U(0, h.scoreWidth bits), shifted.asUInt.resize(h.scoreWidth)))
+    val CANDIDATE = insert(segment.fold(True)(seg => !control.segmentTest || seg.PASSES))
+    val shifted = floorShift(scoreNode(R), h.scoreShift)
+    val SCORE = scoreNode.insert(
+      Mux(shifted.sign || !scoreNode(CANDIDATE), U(0, h.scoreWidth bits), shifted.asUInt.resize(h.scoreWidth))
+    )
   }
 
   // The beat's position is not carried through the stages: a beat at x = 0 starts a line and one at x = y = 0 a

@@ -115,9 +115,13 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
     val lessTwo = RegNext(groups - 2) init 0
   }
 
+  val entryWidth = widthOf(Entry())
+  val partWidth = (entryWidth + MatcherConfig.storeParts - 1) / MatcherConfig.storeParts
   val lanes =
     for (l <- 0 until P) yield new Area {
-      val store = Mem(Entry(), m.groups)
+      // the lane's entries in parts, each part its own RAM blocks with its own read address register: one
+      // register would drive all of a lane's blocks
+      val store = Seq.fill(MatcherConfig.storeParts)(Mem(Bits(partWidth bits), m.groups))
       // While a keyframe loads, an entry's cross state is not needed: its word holds the entry's score instead
       // (what the replacement compares), and the keyframe's end clears them all (no RAM for the scores).
       val cross = Mem(Cross(), m.groups)
@@ -322,9 +326,12 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
       def address(scanAddr: UInt): UInt = {
         keptApart(RegNext(Mux(rescan.busy, rescan.group.resize(groupWidth), Mux(sweep.busy, sweep.addr, scanAddr))))
       }
-      val addr = address(scan.readAddr)
       val crossAddr = address(scanCrossAddr)
-      val entry = RegNext(lane.store.readSync(addr))
+      // each part through its own address copy and its RAMs' output register
+      val entry = Entry()
+      entry.assignFromBits(
+        Cat(lane.store.map(part => RegNext(part.readSync(address(scan.readAddr))))).resize(entryWidth)
+      )
       val cross = RegNext(RegNext(lane.cross.readSync(crossAddr)))
 
       /** the entry's position beside its cross word, for the sweep */
@@ -642,7 +649,14 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
     liveEntry.x := scan.live.x
     liveEntry.y := scan.live.y
     liveEntry.descriptor := compare.liveCopies(l / MatcherConfig.lanesPerLiveCopy)
-    lane.store.write(keptApart(RegNext(load.addr)), liveEntry, keptApart(RegNext(loadHere) init False))
+    val liveBits = liveEntry.asBits.resize(MatcherConfig.storeParts * partWidth)
+    // one write address and enable for the lane's parts (copies per part, as the reads have, would cost logic
+    // elements that are not left)
+    val writeAddr = keptApart(RegNext(load.addr))
+    val writeEnable = keptApart(RegNext(loadHere) init False)
+    for ((part, i) <- lane.store.zipWithIndex) {
+      part.write(writeAddr, liveBits(i * partWidth, partWidth bits), writeEnable)
+    }
     // the score word a clock later than the entry, its decision registered before the selection below (the rescan
     // that reads it starts later still)
     val scoreHere = keptApart(RegNext(loadHere) init False)

@@ -153,7 +153,13 @@ class ReportSpec extends AnyFunSuite {
     val rows = cfg.descriptor.smoothedRows
     assert(""""depth": 2048, "width": 8""".r.findAllMatchIn(memories).size == rows / 2)
     assert(""""depth": 1024, "width": 8""".r.findAllMatchIn(memories).size == rows % 2)
-    assert(memories.contains(s""""depth": ${cfg.matcher.groups}, "width": 278"""))
+    // a store entry (position and descriptor, 278 bits) in `storeParts` RAMs per lane
+    val entryBits = 2 * cfg.frame.coordWidth + OrbDescriptorConfig.descriptorBits
+    val partBits = (entryBits + MatcherConfig.storeParts - 1) / MatcherConfig.storeParts
+    assert(
+      s""""depth": ${cfg.matcher.groups}, "width": $partBits""".r.findAllMatchIn(memories).size ==
+        cfg.matcher.comparators * MatcherConfig.storeParts
+    )
     assert(number("multipliers") >= 24, "at least the Harris products")
     assert(
       number("per_cell") == cfg.budget.perCell && number("clocks_per_feature") == cfg.clocksPerFeature &&
