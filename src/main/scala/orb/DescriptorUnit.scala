@@ -311,6 +311,11 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
       t.assignSomeByName(o.item)
       t
     }
+
+    /** the head's start row, and the row from which it is late (`slackRows` on), in registers of their own (kept
+      * apart) beside the dispatch's subtractions: no one register drives them and the history's choice */
+    val sinceRow = keptApart(RegNext(o.item.startRow))
+    val lateRow = keptApart(RegNext(o.item.startRow + d.slackRows))
   }
 
   /** The oldest slot's feature or a frame's end, offered to the output register (`leaving`). */
@@ -328,13 +333,15 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
     val c = headOf.tags
     // rows since the patch was complete (negative: not yet), for the head of the clock before: it is the head's
     // now unless the head left then or a row started since (the rows and their history then moved on)
-    val difference = (ring.clock.row - c.startRow).asSInt
+    val difference = (ring.clock.row - headOf.sinceRow).asSInt
     val since = RegNext(difference)
     val computed = RegNext(head.valid && !c.end.now && !head.fire) init False
     val current = computed && !ring.rowStartCopy()
     // the tests on the rows since, registered beside them: the start decision only combines registers
     val early = RegNext(difference.msb) init True
-    val late = RegNext(difference.asUInt >= d.slackRows) init False
+    // late: `slackRows` rows since or more, as the sign of the rows since the late row (one subtraction; it differs
+    // from that comparison only while the head is early, when no decision reads it)
+    val late = RegNext(!(ring.clock.row - headOf.lateRow).asSInt.msb) init False
     // each row's test against the head's frame, then the one its start row names (the same entry as the row
     // `difference` rows back whenever that is within the slack: otherwise `early` or `late` decides)
     val goodRows = Vec(ring.history.map(row => row.active && row.frame === c.frameTag))
