@@ -49,11 +49,15 @@ class AngleSearch[T <: Data](itemType: HardType[T], d: OrbDescriptorConfig) exte
   require(tWidth <= Arith.multiplierWidth && momentWidth - loWidth <= Arith.multiplierWidth)
   val fracBits = d.tanFracBits
 
-  val state = RegInit(AngleSearchState.IDLE)
+  // one-hot: `idle` is one register, which enables the input's copy
+  val state = Reg(AngleSearchState(binaryOneHot)) init AngleSearchState.IDLE
+  val idle = state === AngleSearchState.IDLE
   val item = Reg(itemType())
   val m10, m01 = Reg(SInt(momentWidth bits))
-  io.input.ready := state === AngleSearchState.IDLE
-  when(io.input.fire) {
+  io.input.ready := idle
+  // copied every clock while idle (an enable from the state alone, not from the input's handshake): the corner
+  // accepted is the last one copied
+  when(idle) {
     item := io.input.item
     m10 := io.input.m10
     m01 := io.input.m01

@@ -364,6 +364,7 @@ object OrbDescriptorConfig {
   * @param comparators   Hamming distances computed per clock (P): a live feature takes storeCapacity / P clocks
   *                      plus the pipeline latency. The store is P RAMs of storeCapacity / P x 278 bits, so the
   *                      default 512 / 4 = 128 deep fills the M4K's 128 x 36 shape exactly (32 M4K)
+  * @param popcountChunkBits the popcount's first step counts the ones of chunks this wide (4: one LUT4 per count bit)
   * @param popcountLevelsPerStage adder levels of the 256-bit popcount tree between pipeline registers
   * @param ratioFracBits fraction bits of the ratio-test factor r (best < r * second), a run-time value below 2
   * @param outputDepth   correspondences the output FIFO holds
@@ -375,7 +376,8 @@ object OrbDescriptorConfig {
 case class MatcherConfig(
     storeCapacity: Int = 512,
     comparators: Int = 4,
-    popcountLevelsPerStage: Int = 2,
+    popcountChunkBits: Int = 4,
+    popcountLevelsPerStage: Int = 1,
     ratioFracBits: Int = 8,
     outputDepth: Int = 64,
     outputTimeout: Int = 4096,
@@ -390,6 +392,10 @@ case class MatcherConfig(
     "comparators must be a power of two dividing storeCapacity"
   )
   require(popcountLevelsPerStage >= 1 && outputTimeout >= 1)
+  require(
+    isPow2(popcountChunkBits) && popcountChunkBits <= OrbDescriptorConfig.descriptorBits,
+    "popcountChunkBits must be a power of two"
+  )
   require(outputDepth >= MatcherConfig.pushLatency + 2, "the output FIFO must hold the sweep's pushes in flight")
   require(
     defaultHammingThreshold >= 0 && defaultHammingThreshold <= 256 && defaultRatio >= 0 && defaultRatio < (2 << ratioFracBits)
@@ -448,8 +454,8 @@ object MatcherConfig {
   /** Parts of the input register's payload (a feature), each loaded by its own copy of the register's empty flag. */
   val itemParts: Int = 8
 
-  /** Parts of the rescan's score comparisons, side by side (`Arith.comparedInParts`): a part's equality one LUT level
-    * less than in halves. */
+  /** Parts of the score comparisons of the rescan and the replacement, side by side (`Arith.comparedInParts`): a
+    * part's equality one LUT level less than in halves. */
   val scoreParts: Int = 3
 
   /** Parts of a copy of the live descriptor, each loaded by its own copy of the idle flag. */
@@ -458,23 +464,23 @@ object MatcherConfig {
   /** Lanes that share a copy of the live descriptor (a pair: the copies are flip-flops alone in their LEs). */
   val lanesPerLiveCopy: Int = 2
 
-  /** The popcount adds the counts of 8-bit chunks in a binary tree. */
-  val chunkBits: Int = 8
-  val treeLevels: Int = log2Up(OrbDescriptorConfig.descriptorBits / chunkBits)
-  def popcountStages(m: MatcherConfig): Int = 2 + (treeLevels + m.popcountLevelsPerStage - 1) / m.popcountLevelsPerStage
+  /** The popcount adds the counts of its chunks in a binary tree of this many levels. */
+  def treeLevels(m: MatcherConfig): Int = log2Up(OrbDescriptorConfig.descriptorBits / m.popcountChunkBits)
+  def popcountStages(m: MatcherConfig): Int =
+    2 + (treeLevels(m) + m.popcountLevelsPerStage - 1) / m.popcountLevelsPerStage
 
   /** The Hamming distance of `a` and `b` (256 bits), after `popcountStages` clocks: their xor registered (beside the
     * lane's logic: `a` comes from a RAM's output register), the chunk counts registered, then a register every
-    * `levelsPerStage` levels of the adder tree, and after the last. */
-  def hamming(a: Bits, b: Bits, levelsPerStage: Int): UInt = {
+    * `popcountLevelsPerStage` levels of the adder tree, and after the last. */
+  def hamming(a: Bits, b: Bits, m: MatcherConfig): UInt = {
     import spinal.lib._
     val differ = RegNext(a ^ b)
-    var v: Seq[UInt] = differ.subdivideIn(chunkBits bits).map(c => RegNext(CountOne(c))).toSeq
+    var v: Seq[UInt] = differ.subdivideIn(m.popcountChunkBits bits).map(c => RegNext(CountOne(c))).toSeq
     var level = 0
     while (v.size > 1) {
       v = v.grouped(2).map(g => g(0) +^ g(1)).toSeq
       level += 1
-      if (level % levelsPerStage == 0 || v.size == 1) v = v.map(RegNext(_))
+      if (level % m.popcountLevelsPerStage == 0 || v.size == 1) v = v.map(RegNext(_))
     }
     v.head.resize(distanceWidth)
   }

@@ -7,7 +7,7 @@ import orb.model.DescriptorSchedule
 import orb.model.DescriptorSchedule.{groups, lanesPerPort, pointsPerGroup, testsPerGroup}
 
 /** What a slot of the descriptor engine holds. */
-object EngineState extends SpinalEnum {
+object EngineState extends SpinalEnum(binaryOneHot) {
 
   /** no corner; a corner being described; its finished feature; a corner whose rows were overwritten before its
     * descriptor was complete */
@@ -291,9 +291,11 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
     val narrowed = RegNext(narrowCosSin(lookedUp))
     val rotation = RegNext(rotationOf(narrowed))
     val head = Stream(PreparedCorner())
-    // the result held (and not taken) in each of the last `rotationLatency` clocks: the registers hold its
-    val waited = History(o.valid && !head.fire, 1 to DescriptorUnit.rotationLatency, init = False)
-    head.valid := o.valid && waited.reduce(_ && _)
+    // the result held (and not taken) in each of the last `rotationLatency` clocks: the registers hold its (held
+    // in the last clock, the search still holds it). The clocks before the last ANDed a clock ahead into a register.
+    val waited = History(o.valid && !head.fire, 1 until DescriptorUnit.rotationLatency, init = False)
+    val waitedBefore = RegNext(waited.reduce(_ && _)) init False
+    head.valid := waited.head && waitedBefore
     head.item.assignSomeByName(o.item)
     head.item.bin := bin
     head.rotation := rotation
@@ -316,6 +318,10 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
       * apart) beside the dispatch's subtractions: no one register drives them and the history's choice */
     val sinceRow = keptApart(RegNext(o.item.startRow))
     val lateRow = keptApart(RegNext(o.item.startRow + d.slackRows))
+
+    /** the head's start row's entry in the rows' history, one-hot (kept apart, beside the history's tests): the
+      * test of the row it names is an AND-OR, not a multiplexer on a row number */
+    val startEntry = keptApart(RegNext(UIntToOh(o.item.startRow.resize(log2Up(historyRows)))))
   }
 
   /** The oldest slot's feature or a frame's end, offered to the output register (`leaving`). */
@@ -345,7 +351,7 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
     // each row's test against the head's frame, then the one its start row names (the same entry as the row
     // `difference` rows back whenever that is within the slack: otherwise `early` or `late` decides)
     val goodRows = Vec(ring.history.map(row => row.active && row.frame === c.frameTag))
-    val dataOk = RegNext(goodRows(c.startRow.resize(log2Up(historyRows)))) init False
+    val dataOk = RegNext((goodRows.asBits & headOf.startEntry).orR) init False
     val due = current && !early
     // the head's frame is over at the ring (a frame started since): a head not yet due never will be (its start
     // row was not processed: the ring stood still from a fault to the frame's end)
@@ -378,8 +384,9 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
     // whether it is one, with `starts` (a slot registers both as it takes the corner)
     val oneRowLeftNext = left === 1
     free := engine.canBegin && !start
-    // A frame end leaves when every corner before it has: the engine idle.
-    val marker = head.valid && c.end.now && engine.idle
+    // A frame end leaves when every corner before it has: the engine idle, tested a clock ahead into a register (the
+    // output's validity follows registers; no corner starts while a frame end is the head, so the engine stays idle)
+    val marker = RegNext(head.valid && c.end.now && engine.idle && !head.fire) init False
     head.ready := start || refuse || (marker && output.ready)
     engine.begin(head.payload, base, rowsLeft, oneRowLeftNext, start, starts, slotStarts)
   }
@@ -493,11 +500,15 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
     def abandons(tag: Bool): Bool = pick(tag)(_.abandon)
 
     /** the slot whose feature leaves next (the oldest corner in the engine), and copies of it (kept apart), each
-      * choosing a part of the descriptor for the output register */
+      * choosing a part of the descriptor for the output register: the copies follow a clock late (`leftLast`) */
     val outTag = RegInit(False)
     val outTags = Seq.fill(DescriptorUnit.outputParts) {
       keptApart(RegInit(False))
     }
+
+    /** a feature or an abandonment left in the last clock: the copies of `outTag` move now, so the output takes
+      * nothing in this clock (a taken feature's output register is full now anyway) */
+    val leftLast = RegInit(False)
 
     /** A corner starts when `start` (`starts` a clock ahead) with `left` rows left (`oneLeft`: one, with `starts`);
       * `slotStarts` are copies of it (kept apart), one per slot, each loading that slot's registers. */
@@ -545,6 +556,9 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
           s.leavesNext := !s.leavesNext
         }
         outTag := !outTag
+      }
+      leftLast := any
+      when(leftLast) {
         for (t <- outTags) {
           t := !t
         }
@@ -559,9 +573,15 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
       * them all; made with the issue stage (`issue.advanceCopies`) */
     private val enableRequests = scala.collection.mutable.ArrayBuffer[(Bool, Int)]()
 
-    /** enables of registers that lie apart from the others made before and after them (beside the multipliers
-      * of every point, or the dispatch's): each gets a copy of `advance` of its own (`issue.advanceCopy`) */
+    /** enables of registers that lie apart from the others made before and after them (the fetch's count, the
+      * pattern's parts and pick, the rotation's first steps beside the dispatch): each gets a copy of `advance` of
+      * its own (`issue.advanceCopy`) */
     private val ownEnables = scala.collection.mutable.ArrayBuffer[Bool]()
+
+    /** enables of registers that lie together through several stages (`stepAt`): a point's beside its
+      * multipliers, a slice's of the pattern beside its table: one copy of `advance` per site, which lies there */
+    private val siteEnables =
+      scala.collection.mutable.LinkedHashMap[String, scala.collection.mutable.ArrayBuffer[Bool]]()
 
     /** an enable for `bits` more of the front end's registers: a copy of `advance` chosen once the front end is
       * built (`shareEnables`), or one of its own */
@@ -589,14 +609,26 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
         load += bits
         left -= bits
       }
+      val abandonCopies = DescriptorUnit.advanceCopies / DescriptorUnit.advanceCopiesPerAbandon
       for ((e, i) <- ownEnables.zipWithIndex) {
-        e := issue.advanceCopy(i % (DescriptorUnit.advanceCopies / DescriptorUnit.advanceCopiesPerAbandon))
+        e := issue.advanceCopy(i % abandonCopies)
+      }
+      for (((_, enables), i) <- siteEnables.zipWithIndex) {
+        val copy = issue.advanceCopy(i % abandonCopies)
+        enables.foreach(_ := copy)
       }
     }
     def step[T <: Data](v: T): T = RegNextWhen(v, enable(widthOf(v)))
 
     /** `step` enabled by a copy of `advance` of its own */
     def stepApart[T <: Data](v: T): T = RegNextWhen(v, enable(widthOf(v), own = true))
+
+    /** `step` enabled by the copy of `advance` of `site` (`siteEnables`) */
+    def stepAt[T <: Data](site: String)(v: T): T = {
+      val e = Bool()
+      siteEnables.getOrElseUpdate(site, scala.collection.mutable.ArrayBuffer[Bool]()) += e
+      RegNextWhen(v, e)
+    }
 
     /** Whether a front-end stage holds a group, and of which slot. */
     case class Token() extends Bundle {
@@ -623,7 +655,7 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
       /** the group fetched now: the one count of the front end (its stages take it from here, a stage a clock) */
       val group = Reg(UInt(log2Up(groups + 1) bits)) init groups
       val valid = group < groups
-      when(enable(widthOf(group)) && valid) {
+      when(enable(widthOf(group), own = true) && valid) {
         group := group + 1
       }
       when(valid && Mux(tag, slots(1).abandonCopy(), slots(0).abandonCopy())) {
@@ -682,9 +714,9 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
             sliceWidth,
             DescriptorUnit.tableParts
           )
-          def countCopy(): UInt = keptApart(step(fetch.group.resize(log2Up(groups))))
+          def countCopy(): UInt = keptApart(stepAt(s"slice$sl")(fetch.group.resize(log2Up(groups))))
           val indexCopies = (0 until DescriptorUnit.tableParts).map(_ => countCopy())
-          val words = Vec(table.wordsEach(indexCopies).map(step(_)))
+          val words = Vec(table.wordsEach(indexCopies).map(stepAt(s"slice$sl")(_)))
           // the part, a copy per point's coordinate (kept apart), from one count copy
           val partCount = countCopy()
           val parts = Seq.fill(sliceWidth / fieldWidth)(keptApart(stepApart(table.part(partCount))))
@@ -692,10 +724,10 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
       }
       // Cat of a sequence puts its first element in the low bits: slice 0 there, as in the table's words
       val picked = stepApart(Cat(slices.map(sl => sl.table.pickEach(sl.words, sl.parts))))
-      // a register per point, each enabled by a copy of `advance` of its own: each lies beside its point's
-      // multipliers, which lie apart across the chip
+      // a register per point, enabled by its point's copy of `advance`: each lies beside its point's multipliers,
+      // which lie apart across the chip
       val pointWidth = 2 * fieldWidth
-      val points = (0 until pointsPerGroup).map(i => stepApart(picked(i * pointWidth, pointWidth bits)))
+      val points = (0 until pointsPerGroup).map(i => stepAt(s"point$i")(picked(i * pointWidth, pointWidth bits)))
       private def field(k: Int): Bits = points(k / 2)((k % 2) * fieldWidth, fieldWidth bits)
 
       /** point i: |x|, x < 0, |y|, y < 0 */
@@ -715,10 +747,10 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
       // two steps before the copies: the pattern's lookups are a stage behind the count
       val first = stepApart(stepApart(fetched))
       // a copy per point (kept apart), each feeding only its point's four multipliers
-      val copies = (0 until pointsPerGroup).map { _ =>
-        keptApart(step(first))
+      val copies = (0 until pointsPerGroup).map { i =>
+        keptApart(stepAt(s"point$i")(first))
       }
-      val values = copies.map(step(_))
+      val values = copies.zipWithIndex.map { case (c, i) => stepAt(s"point$i")(c) }
     }
     val productWidth = patternWidth + magnitudeWidth
 
@@ -748,7 +780,7 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
         o.ySubtract := xsNegative =/= ycNegative
         o.xNegative := xcNegative
         o.yNegative := xsNegative
-        step(o)
+        stepAt(s"point$i")(o)
       }
     }
     // |x'| and |y'| rounded half to even: the quotient's bits with the sign folded in (ones' complement) and the
@@ -794,7 +826,7 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
     // the products once more in plain registers: the multipliers' own output registers lie apart from the adders
     val near = new Area {
       val token = stepToken(products.token)
-      val p = products.p.map(step(_))
+      val p = products.p.zipWithIndex.map { case (p, i) => stepAt(s"point$i")(p) }
     }
     val totals = new Area {
       val token = stepToken(near.token)
@@ -1134,12 +1166,13 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
   /** The features leave through a half-rate register (as `halfPipe`: its valid, the offer's ready and the payload's
     * load enable all registers, so the matcher's readiness does not reach the engine's state or the 256-bit payload
     * through logic; one feature per two clocks, where they come at most one per descriptor). The load enable and the
-    * oldest slot's tag have a copy per part of the descriptor (kept apart): no one flag drives the whole payload. */
+    * oldest slot's tag have a copy per part of the descriptor (kept apart): no one flag drives the whole payload.
+    * The tag's copies follow it a clock late, in which the output takes nothing (`DescriptorEngine.leftLast`). */
   val leaving = new Area {
     val full = RegInit(False)
     val payload = Reg(FeatureHw(f, h, d))
-    output.ready := !full
-    when(output.valid) {
+    output.ready := !full && !engine.leftLast
+    when(output.fire) {
       full := True
     }
     when(full && io.features.ready) {

@@ -31,7 +31,8 @@ case class HarrisStages(
     suppressRead: Int = 20,
     suppressParts: Int = 3,
     segmentCompare: Int = 2,
-    segmentArc: Int = 3
+    segmentArc: Int = 3,
+    segmentAny: Int = 4
 ) {
   private val order = Seq(
     sobel,
@@ -56,8 +57,9 @@ case class HarrisStages(
   )
   require(suppressParts >= 1, "the suppression compares scores in one part or more")
   require(
-    segmentCompare >= 0 && segmentArc > segmentCompare && segmentArc <= response,
-    "the segment test compares, then combines arcs a node later, at the latest where the score is formed"
+    segmentCompare >= 0 && segmentArc > segmentCompare && segmentAny > segmentArc && segmentAny <= response,
+    "the segment test compares, then tests each arc a node later and ORs the arcs a node after that, at the latest " +
+      "where the score is formed"
   )
 
   /** the window column arrives `RowWindow.latency` nodes after it is read (through the RAM's output register) and is
@@ -118,7 +120,7 @@ class HarrisDetector(f: FrameConfig, h: HarrisConfig, columnRows: Int, stages: H
 
   /** 1 2 1 smoothing of three values. */
   private def w121(a: SInt, b: SInt, c: SInt, width: Int): SInt =
-    (a.resize(width) + (b.resize(width) |<< 1)) + c.resize(width)
+    Arith.carrySaveSumSigned(Seq(a, b.resize(width) |<< 1, c), width) // a LUT level, then one adder
 
   /** Binomial 1 6 15 20 15 6 1 as a symmetric pre-add (at node `pre`) then shifts and adds (at node `sum`; with a
     * `mid` node, the two halves of that sum are registered there), plus `bias` if given. */
@@ -210,8 +212,10 @@ class HarrisDetector(f: FrameConfig, h: HarrisConfig, columnRows: Int, stages: H
           p.intoSInt.resize(SegmentTestConfig.signedWidth) < darkerThan(arcOf(i))
         }).asBits
       )
-      def anyArc(b: Bits): Bool = (0 until 16).map(s => (0 until sc.arc).map(k => b((s + k) % 16)).andR).orR
-      val PASSES = arcNode.insert(anyArc(arcNode(BRIGHTER)) || anyArc(arcNode(DARKER)))
+      // each arc's test (all its pixels brighter, or all darker) registered, then their OR
+      def arcs(b: Bits): Seq[Bool] = (0 until 16).map(s => (0 until sc.arc).map(k => b((s + k) % 16)).andR)
+      val ARCS = arcNode.insert(Cat(arcs(arcNode(BRIGHTER)) ++ arcs(arcNode(DARKER))))
+      val PASSES = at(stages.segmentAny).insert(at(stages.segmentAny)(ARCS).orR)
     }
   }
 

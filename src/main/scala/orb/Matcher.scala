@@ -117,11 +117,23 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
 
   val entryWidth = widthOf(Entry())
   val partWidth = (entryWidth + MatcherConfig.storeParts - 1) / MatcherConfig.storeParts
+
+  /** A part of a lane's entries: its own RAM blocks, read and written through registers of its own (kept apart:
+    * one address or enable register would drive all of a lane's blocks). */
+  class StorePart extends Area {
+    val ram = Mem(Bits(partWidth bits), m.groups)
+
+    /** the word at `address` (registered before the RAM), through the RAM's output register */
+    def read(address: UInt): Bits = RegNext(ram.readSync(keptApart(RegNext(address))))
+
+    /** `data` (plain registers) written at `address` when `enable`, both registered before the RAM */
+    def write(address: UInt, data: Bits, enable: Bool): Unit =
+      ram.write(keptApart(RegNext(address)), data, keptApart(RegNext(enable) init False))
+  }
   val lanes =
     for (l <- 0 until P) yield new Area {
-      // the lane's entries in parts, each part its own RAM blocks with its own read address register: one
-      // register would drive all of a lane's blocks
-      val store = Seq.fill(MatcherConfig.storeParts)(Mem(Bits(partWidth bits), m.groups))
+      // the lane's entries in parts, each with registers of its own (`StorePart`)
+      val store = Seq.fill(MatcherConfig.storeParts)(new StorePart)
       // While a keyframe loads, an entry's cross state is not needed: its word holds the entry's score instead
       // (what the replacement compares), and the keyframe's end clears them all (no RAM for the scores).
       val cross = Mem(Cross(), m.groups)
@@ -150,12 +162,15 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
     val meetsFull = keyFeature && !room
 
     /** a keyframe feature met the full store in the last clock: it replaces the weakest entry if it is stronger,
-      * compared in the clock of the take (into a register, every clock) and decided now from registers: no
+      * compared in the clock of the take (into registers, every clock) and decided now from registers: no
       * comparison between the handshake or the scores and the store's enables. The item register still holds it
       * (`halfPipe` loads the next item a clock after the take), and the weakest has not changed since (it changes a
       * clock after an append, or at a rescan's end, both at least a clock before a take). */
     val metFull = RegNext(meetsFull) init False
-    val stronger = RegNext(item.score > weakest.score) init False
+    // compared in parts side by side into registers, combined after them (no carry through the whole score)
+    val strongerParts =
+      RegNext(Arith.comparedInParts(item.score, weakest.score, orEqual = false, MatcherConfig.scoreParts))
+    val stronger = Arith.combineParts(strongerParts)
     val replace = metFull && stronger
     val index = Mux(replace, weakest.index, storedNow)
     val addr = groupOf(index, groupWidth)
@@ -309,6 +324,11 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
       group := 0
       atLast := Bool(m.groups == 1)
     }
+
+    /** the clears a clock behind the activity, a flag per lane (kept apart): no activity flag reaches a lane's write
+      * data. The next item's first write (a keyframe feature's score word) still comes after the last clear. */
+    val clears = Seq.fill(P)(keptApart(RegNext(busy) init False))
+    val clearGroup = RegNext(group.resize(groupWidth))
   }
 
   val popStages = MatcherConfig.popcountStages(m)
@@ -323,15 +343,12 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
   val reads =
     for ((lane, l) <- lanes.zipWithIndex) yield new Area {
       // each lane's own copies (kept apart: one register would drive every RAM of the store)
-      def address(scanAddr: UInt): UInt = {
-        keptApart(RegNext(Mux(rescan.busy, rescan.group.resize(groupWidth), Mux(sweep.busy, sweep.addr, scanAddr))))
-      }
-      val crossAddr = address(scanCrossAddr)
+      def address(scanAddr: UInt): UInt =
+        Mux(rescan.busy, rescan.group.resize(groupWidth), Mux(sweep.busy, sweep.addr, scanAddr))
+      val crossAddr = keptApart(RegNext(address(scanCrossAddr)))
       // each part through its own address copy and its RAMs' output register
       val entry = Entry()
-      entry.assignFromBits(
-        Cat(lane.store.map(part => RegNext(part.readSync(address(scan.readAddr))))).resize(entryWidth)
-      )
+      entry.assignFromBits(Cat(lane.store.map(_.read(address(scan.readAddr)))).resize(entryWidth))
       val cross = RegNext(RegNext(lane.cross.readSync(crossAddr)))
 
       /** the entry's position beside its cross word, for the sweep */
@@ -459,7 +476,7 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
     val results =
       for ((r, l) <- reads.zipWithIndex) yield new Area {
         val liveDescriptor = liveCopies(l / MatcherConfig.lanesPerLiveCopy)
-        val count = MatcherConfig.hamming(r.entry.descriptor, liveDescriptor, m.popcountLevelsPerStage)
+        val count = MatcherConfig.hamming(r.entry.descriptor, liveDescriptor, m)
         val old = r.cross
         val index = (group.resize(countWidth) |<< log2Up(P)) | U(l, countWidth bits)
         val real = reals(l)
@@ -639,23 +656,19 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
   // clock it is made; nothing reads a word in the clock after it is decided (the rescan starts a clock late).
   for ((lane, l) <- lanes.zipWithIndex) {
     val loadHere = load.writes(l)
-    // the address and the write enable registers of the lane's own (kept apart: one address register would drive
-    // every RAM of the store, and the enable is identical to the score word's decision below, with which synthesis
-    // would merge it: one register then drives the lane's RAM blocks and the cross state's selection apart). The
-    // data are the live registers, the lane's copy of the descriptor: they copy the item register every clock of a
-    // keyframe (no scan runs then), and the item holds a feature for a clock after its take, so a clock after the
-    // take (an append's write) and two clocks after (a replacement's) they hold the feature taken
+    // the address and the write enable registered per part (`StorePart`: kept apart, so no one address register
+    // drives every RAM of the store, and the enable is not merged with its twin, the score word's decision below,
+    // which drives the cross state's selection apart). The data are the live registers, the lane's copy of the
+    // descriptor: they copy the item register every clock of a keyframe (no scan runs then), and the item holds a
+    // feature for a clock after its take, so a clock after the take (an append's write) and two clocks after (a
+    // replacement's) they hold the feature taken
     val liveEntry = Entry()
     liveEntry.x := scan.live.x
     liveEntry.y := scan.live.y
     liveEntry.descriptor := compare.liveCopies(l / MatcherConfig.lanesPerLiveCopy)
     val liveBits = liveEntry.asBits.resize(MatcherConfig.storeParts * partWidth)
-    // one write address and enable for the lane's parts (copies per part, as the reads have, would cost logic
-    // elements that are not left)
-    val writeAddr = keptApart(RegNext(load.addr))
-    val writeEnable = keptApart(RegNext(loadHere) init False)
     for ((part, i) <- lane.store.zipWithIndex) {
-      part.write(writeAddr, liveBits(i * partWidth, partWidth bits), writeEnable)
+      part.write(load.addr, liveBits(i * partWidth, partWidth bits), loadHere)
     }
     // the score word a clock later than the entry, its decision registered before the selection below (the rescan
     // that reads it starts later still)
@@ -673,12 +686,16 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
       Mux(
         markHere,
         decide.markAddr,
-        Mux(clearHere, swept.addr, Mux(keyEnd.busy, keyEnd.group.resize(groupWidth), compare.group))
+        Mux(clearHere, swept.addr, Mux(keyEnd.clears(l), keyEnd.clearGroup, compare.group))
       )
     )
     val data =
-      Mux(scoreHere, scoreWord, Mux(clearHere || keyEnd.busy, clearedCross, Mux(markHere, decide.markValue, c.update)))
-    val enable = scoreHere || markHere || clearHere || keyEnd.busy || c.writeUpdate
+      Mux(
+        scoreHere,
+        scoreWord,
+        Mux(clearHere || keyEnd.clears(l), clearedCross, Mux(markHere, decide.markValue, c.update))
+      )
+    val enable = scoreHere || markHere || clearHere || keyEnd.clears(l) || c.writeUpdate
     lane.cross.write(RegNext(address), RegNext(data), RegNext(enable) init False)
   }
 
@@ -710,8 +727,15 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
   push.payload := RegNext(beat)
   io.correspondences << output.io.pop
 
+  // each count a clock late: the increment registered first, so no handshake reaches a counter's enables
   val counters = new Area {
-    def counter(inc: Bool): UInt = { val c = Reg(f.counter()) init 0; when(inc) { c := c + 1 }; c }
+    def counter(inc: Bool): UInt = {
+      val c = Reg(f.counter()) init 0
+      when(RegNext(inc) init False) {
+        c := c + 1
+      }
+      c
+    }
     io.status.stored := stored.resized
     io.status.storeOverflow := counter(load.overflow)
     io.status.matches := counter(push.fire)

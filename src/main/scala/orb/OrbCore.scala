@@ -49,7 +49,8 @@ class OrbCore(val cfg: OrbConfig = OrbConfig.default) extends Component {
   val featureCount = Reg(cfg.frame.counter()) init 0
   when(io.features.fire && !io.features.end.now) { featureCount := featureCount + 1 }
   io.status.features := featureCount
-  io.status.featureDrops := budget.io.dropped + orientation.io.dropped + descriptors.io.dropped
+  // the sum of the blocks' drop counts registered (a clock late): the register map reads it through one LUT level
+  io.status.featureDrops := RegNext(budget.io.dropped + orientation.io.dropped + descriptors.io.dropped) init 0
   io.status.deselected := budget.io.deselected
   io.frameEnds << harris.io.frameEnds
   io.status.frames := tracker.io.counters.frames

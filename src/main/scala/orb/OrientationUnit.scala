@@ -289,5 +289,5 @@ object OrientationUnit {
   val sumLevelsPerStage: Int = 1
 
   /** taps of the moment chains that share one copy of the beat's valid */
-  val chainGroup: Int = 4
+  val chainGroup: Int = 2
 }

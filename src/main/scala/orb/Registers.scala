@@ -43,8 +43,9 @@ object RegisterMap {
     * sources' selected value (`readGroup` sources a group), then the data */
   val readLatency = 3
 
-  /** read sources ORed into one register before the groups are ORed into the data */
-  val readGroup = 6
+  /** read sources ORed into one register before the groups are ORed into the data: two, a LUT4 per bit (the
+    * counters come from across the chip straight into it) */
+  val readGroup = 2
 
   val RATIO_TEST = ControlBit(0, "ratio test", "ratio test on (from the next frame)", _.matcher.defaultRatioTest)
   val CROSS_CHECK = ControlBit(1, "cross-check", "cross-check on (from the next frame)", _.matcher.defaultCrossCheck)
@@ -236,9 +237,9 @@ object RegisterMap {
   }
 }
 
-/** The Avalon-MM slave of `RegisterMap`: the parameters as registers, every read source copied into a register beside
-  * the bus (the counters come from across the chip), a read's address decoded into a register, the selected
-  * source of each group of them into a register, the groups ORed into the data (`RegisterMap.readLatency`).
+/** The Avalon-MM slave of `RegisterMap`: the parameters as registers, a read's address decoded into a register, the
+  * selected source of each pair of them into a register (the counters' own registers across the chip feed one
+  * LUT level: no copies of them beside the bus), the groups ORed into the data (`RegisterMap.readLatency`).
   * Writes take effect a clock after they are accepted. */
 class RegisterFile(bus: AvalonMM, cfg: OrbConfig, top: OrbTop) extends Area {
   import RegisterMap._
@@ -255,7 +256,7 @@ class RegisterFile(bus: AvalonMM, cfg: OrbConfig, top: OrbTop) extends Area {
   def apply(b: ControlBit): Bool = parameters(CONTROL)(b.bit)
 
   val sources: Seq[(Register, UInt)] = all.map { r =>
-    r -> parameters.getOrElse(r, RegNext(r.hardware.get(top).resize(32)) init 0)
+    r -> parameters.getOrElse(r, r.hardware.get(top).resize(32))
   }
   val selected = RegNext(Vec(sources.map { case (r, _) => bus.read && bus.address === r.address }))
   val reading = RegNext(bus.read) init False
