@@ -172,7 +172,9 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
       RegNext(Arith.comparedInParts(item.score, weakest.score, orEqual = false, MatcherConfig.scoreParts))
     val stronger = Arith.combineParts(strongerParts)
     val replace = metFull && stronger
-    val index = Mux(replace, weakest.index, storedNow)
+    // the weakest entry's place whenever a feature met the full store (no append then: items are two clocks apart),
+    // written only if it replaces: the comparison reaches the enables, not the address
+    val index = Mux(metFull, weakest.index, storedNow)
     val addr = groupOf(index, groupWidth)
     // Each lane's write decided from registers of the lanes the count and the weakest name, a clock behind them:
     // the count changes only as a feature is taken (items at least two clocks apart), the weakest at the latest as
