@@ -573,21 +573,27 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
       * them all; made with the issue stage (`issue.advanceCopies`) */
     private val enableRequests = scala.collection.mutable.ArrayBuffer[(Bool, Int)]()
 
-    /** enables of registers that lie apart from the others made before and after them (the fetch's count, the
-      * pattern's parts and pick, the rotation's first steps beside the dispatch): each gets a copy of `advance` of
-      * its own (`issue.advanceCopy`) */
-    private val ownEnables = scala.collection.mutable.ArrayBuffer[Bool]()
-
-    /** enables of registers that lie together through several stages (`stepAt`): a point's beside its
-      * multipliers, a slice's of the pattern beside its table: one copy of `advance` per site, which lies there */
+    /** enables of registers that lie apart from the registers made before and after them, by site: a copy of
+      * `advance` per site (`issue.advanceCopy`), which lies there. A point's registers beside its multipliers
+      * through several stages, a slice's of the pattern beside its table (`stepAt`); the fetch's count, the
+      * pattern's parts and pick, the rotation's first steps beside the dispatch each a site of its own
+      * (`stepApart`). */
     private val siteEnables =
       scala.collection.mutable.LinkedHashMap[String, scala.collection.mutable.ArrayBuffer[Bool]]()
+    private def siteEnable(site: String): Bool = {
+      val e = Bool()
+      siteEnables.getOrElseUpdate(site, scala.collection.mutable.ArrayBuffer[Bool]()) += e
+      e
+    }
+
+    /** an enable of a site of its own */
+    private def ownEnable(): Bool = siteEnable(s"apart${siteEnables.size}")
 
     /** an enable for `bits` more of the front end's registers: a copy of `advance` chosen once the front end is
-      * built (`shareEnables`), or one of its own */
-    private def enable(bits: Int, own: Boolean = false): Bool = {
+      * built (`shareEnables`) */
+    private def enable(bits: Int): Bool = {
       val e = Bool()
-      if (own) ownEnables += e else enableRequests += e -> bits
+      enableRequests += e -> bits
       e
     }
 
@@ -610,9 +616,6 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
         left -= bits
       }
       val abandonCopies = DescriptorUnit.advanceCopies / DescriptorUnit.advanceCopiesPerAbandon
-      for ((e, i) <- ownEnables.zipWithIndex) {
-        e := issue.advanceCopy(i % abandonCopies)
-      }
       for (((_, enables), i) <- siteEnables.zipWithIndex) {
         val copy = issue.advanceCopy(i % abandonCopies)
         enables.foreach(_ := copy)
@@ -621,14 +624,10 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
     def step[T <: Data](v: T): T = RegNextWhen(v, enable(widthOf(v)))
 
     /** `step` enabled by a copy of `advance` of its own */
-    def stepApart[T <: Data](v: T): T = RegNextWhen(v, enable(widthOf(v), own = true))
+    def stepApart[T <: Data](v: T): T = RegNextWhen(v, ownEnable())
 
     /** `step` enabled by the copy of `advance` of `site` (`siteEnables`) */
-    def stepAt[T <: Data](site: String)(v: T): T = {
-      val e = Bool()
-      siteEnables.getOrElseUpdate(site, scala.collection.mutable.ArrayBuffer[Bool]()) += e
-      RegNextWhen(v, e)
-    }
+    def stepAt[T <: Data](site: String)(v: T): T = RegNextWhen(v, siteEnable(site))
 
     /** Whether a front-end stage holds a group, and of which slot. */
     case class Token() extends Bundle {
@@ -655,7 +654,7 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
       /** the group fetched now: the one count of the front end (its stages take it from here, a stage a clock) */
       val group = Reg(UInt(log2Up(groups + 1) bits)) init groups
       val valid = group < groups
-      when(enable(widthOf(group), own = true) && valid) {
+      when(ownEnable() && valid) {
         group := group + 1
       }
       when(valid && Mux(tag, slots(1).abandonCopy(), slots(0).abandonCopy())) {
