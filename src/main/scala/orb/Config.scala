@@ -568,8 +568,8 @@ case class OrbConfig(
     * its release, after the front end has fetched the previous corner (at most `DescriptorUnit.fetchClocks` after
     * that one's start) and after the corner two before has handed its feature on (its slot); a corner finishes at
     * most `DescriptorUnit.maxClocks` after its start; a finished feature is handed on once the matcher has taken the
-    * one before (no credit for the output's registers), the matcher taking one feature per
-    * `matcher.clocksPerFeature`. Every time here only grows when a corner comes later or takes longer (max-plus), so
+    * one before (no credit for the output's registers), the matcher taking it `DescriptorUnit.handOnClocks` later
+    * at the earliest and one feature per `matcher.clocksPerFeature`. Every time here only grows when a corner comes later or takes longer (max-plus), so
     * corners released together bound any window of corners released over time. */
   def windowClocks(n: Int): Long = {
     val toFetched = DescriptorUnit.fetchClocks(descriptor).toLong
@@ -585,7 +585,7 @@ case class OrbConfig(
       fetched = start + toFetched
       finished = start + toFinished
       val handed = (finished max taken) + 1
-      taken = (handed + 2) max (taken + matcher.clocksPerFeature)
+      taken = (handed + DescriptorUnit.handOnClocks) max (taken + matcher.clocksPerFeature)
       handedOn = Vector(handedOn(1), handed)
     }
     finished

@@ -386,8 +386,12 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
     free := engine.canBegin && !start
     // A frame end leaves when every corner before it has: the engine idle, tested a clock ahead into a register (the
     // output's validity follows registers; no corner starts while a frame end is the head, so the engine stays idle)
-    val marker = RegNext(head.valid && c.end.now && engine.idle && !head.fire) init False
-    head.ready := start || refuse || (marker && output.ready)
+    // It leaves the queue a clock after it left the engine (`markerLeft`), so the output's readiness reaches no
+    // queue or search state; it is not offered in that clock.
+    val marker = Reg(Bool()) init False
+    val markerLeft = RegNext(marker && output.ready) init False
+    marker := head.valid && c.end.now && engine.idle && !head.fire && !(marker && output.ready)
+    head.ready := start || refuse || markerLeft
     engine.begin(head.payload, base, rowsLeft, oneRowLeftNext, start, starts, slotStarts)
   }
 
@@ -1027,7 +1031,8 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
       })
       val reads2 = delayed(reads1)
       // A registered copy of every lane per cluster, decoded for its banks: the long wires to the banks end here,
-      // and each bank port picks its address from beside it.
+      // and each bank port picks its address from beside it. The addresses kept apart: every cluster's is the same
+      // value, which synthesis would otherwise merge into one register driving every bank.
       val ports = Vec((0 until clusters).map { k =>
         Vec(located.map { l =>
           val o = ClusterPort()
@@ -1035,6 +1040,7 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
           o.address := l.address
           val r = RegNext(o)
           r.hits.init(0)
+          keptApart(r.address)
           r
         })
       })
@@ -1162,25 +1168,29 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
   engine.handOn(output.ready)
   val engineDrop = oldest(_.state === EngineState.ABANDONED)
 
-  /** The features leave through a half-rate register (as `halfPipe`: its valid, the offer's ready and the payload's
-    * load enable all registers, so the matcher's readiness does not reach the engine's state or the 256-bit payload
-    * through logic; one feature per two clocks, where they come at most one per descriptor). The load enable and the
-    * oldest slot's tag have a copy per part of the descriptor (kept apart): no one flag drives the whole payload.
-    * The tag's copies follow it a clock late, in which the output takes nothing (`DescriptorEngine.leftLast`). */
+  /** The features leave through an output register whose valid, whose readiness to the engine and whose load enables
+    * are all registers, so the matcher's readiness does not reach the engine's state or the 256-bit payload through
+    * logic. The position, score and tags load in the clock a feature or a frame's end leaves (`loadNow`); the
+    * descriptor a clock later, in parts (each by its own copy of `!full` from the clock before: a register straight
+    * from a register, so no decision drives the wires to the parts), from the slot its copy of the oldest slot's tag
+    * names: the copies follow the tag a clock late (`DescriptorEngine.leftLast`) and a finished slot's descriptor
+    * stays until it runs a corner again. The output is offered once the descriptor is in (`shown`, a clock after
+    * `full`): a feature reaches the matcher `DescriptorUnit.handOnClocks` after it leaves the engine at the
+    * earliest, one per three clocks, where they come at most one per descriptor. */
   val leaving = new Area {
     val full = RegInit(False)
+    val shown = RegInit(False)
     val payload = Reg(FeatureHw(f, h, d))
     output.ready := !full && !engine.leftLast
     when(output.fire) {
       full := True
     }
-    when(full && io.features.ready) {
+    when(io.features.fire) {
       full := False
     }
-    val loads = Seq.fill(DescriptorUnit.outputParts) {
-      keptApart(RegNext(!full.getAheadValue()) init True)
-    }
-    when(loads.head) {
+    shown := full && !io.features.fire
+    val loadNow = RegNext(!full.getAheadValue()) init True
+    when(loadNow) {
       payload.x := output.x
       payload.y := output.y
       payload.bin := output.bin
@@ -1188,13 +1198,16 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
       payload.keyframe := output.keyframe
       payload.end := output.end
     }
-    val partBits = OrbDescriptorConfig.descriptorBits / loads.size
-    for (((load, tag), p) <- loads.zip(engine.outTags).zipWithIndex) {
+    val partLoads = Seq.fill(DescriptorUnit.outputParts) {
+      keptApart(RegNext(!full) init True)
+    }
+    val partBits = OrbDescriptorConfig.descriptorBits / partLoads.size
+    for (((load, tag), p) <- partLoads.zip(engine.outTags).zipWithIndex) {
       when(load) {
         payload.descriptor(p * partBits, partBits bits) := engine.pick(tag)(_.descriptor(p * partBits, partBits bits))
       }
     }
-    io.features.valid := full
+    io.features.valid := shown
     io.features.payload := payload
   }
 
@@ -1245,6 +1258,11 @@ object DescriptorUnit {
   /** Clocks from the head leaving to the next head's start or refusal, at most, when the next corner waits in the
     * queue: its bin's search (`AngleSearch.clocks`), its rotation, the dispatch's decision. */
   def headClocks(d: OrbDescriptorConfig): Int = AngleSearch.clocks(d) + rotationLatency + dispatchClocks
+
+  /** Clocks from a feature leaving the engine (its slot handed on) to the matcher's scan taking it, at the earliest:
+    * the output register offers it two clocks later (its descriptor loads a clock late, see `leaving`), the
+    * matcher's input register holds it a clock more. */
+  val handOnClocks: Int = 3
 
   /** copies of the front end's `advance`, each enabling a share of its registers */
   val advanceCopies: Int = 16

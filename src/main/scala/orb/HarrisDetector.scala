@@ -7,32 +7,32 @@ import Arith._
 import orb.Pipes.keptApart
 
 /** Where each step of the detector sits in its pipeline (node index); a later node means more registers in
-  * between. Steps of one node share a clock; the default registers the input column twice (it comes from the
-  * line buffer's RAM, which the smoother and the orientation unit share: one register may lie by the RAM, the
-  * other by the Sobel adders), puts a register after every adder tree and multiplier, and gives the gradients
+  * between. Steps of one node share a clock; the default registers the input column three times (it comes from
+  * the line buffer's RAM, which the smoother and the orientation unit share: one register may lie by the RAM, one
+  * by the Sobel adders and one on the wire between them), puts a register after every adder tree and multiplier, and gives the gradients
   * two registers before the products (the second becomes the multiplier block's input register, the first stays
   * beside the Sobel adders, so no adder drives the long wires to the multipliers) and the products two after them
   * (the first is the multiplier block's output register, the second lies beside the adders that take them). */
 case class HarrisStages(
-    sobel: Int = 2,
-    sobelDiff: Int = 3,
-    products: Int = 5,
-    columnPre: Int = 7,
-    columnMid: Int = 8,
-    columnSum: Int = 9,
-    rowPre: Int = 10,
-    rowMid: Int = 11,
-    rowSum: Int = 12,
-    trace: Int = 13,
-    multiply: Int = 15,
-    kTrace: Int = 17,
-    response: Int = 18,
-    score: Int = 19,
-    suppressRead: Int = 20,
+    sobel: Int = 3,
+    sobelDiff: Int = 4,
+    products: Int = 6,
+    columnPre: Int = 8,
+    columnMid: Int = 9,
+    columnSum: Int = 10,
+    rowPre: Int = 11,
+    rowMid: Int = 12,
+    rowSum: Int = 13,
+    trace: Int = 14,
+    multiply: Int = 16,
+    kTrace: Int = 18,
+    response: Int = 19,
+    score: Int = 20,
+    suppressRead: Int = 21,
     suppressParts: Int = 3,
-    segmentCompare: Int = 2,
-    segmentArc: Int = 3,
-    segmentAny: Int = 4
+    segmentCompare: Int = 3,
+    segmentArc: Int = 4,
+    segmentAny: Int = 5
 ) {
   private val order = Seq(
     sobel,

@@ -191,10 +191,14 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
     when(append) {
       stored := Mux(frame.first && isKey, U(1, countWidth bits), storedPlusOne)
     }
-    // an appended feature that becomes the weakest: decided as it is taken into a register, written a clock later
-    // (the next item is taken two clocks after at the earliest: `halfPipe`), so no score comparison drives the
-    // weakest entry's enables
-    val becomesWeakest = RegNext(append && (storedZero || item.score < weakest.score)) init False
+    // an appended feature that becomes the weakest: compared as it is taken (`item.score < weakest.score`, in parts
+    // into registers, as `strongerParts`), decided and written a clock later (the next item is taken two clocks
+    // after at the earliest: `halfPipe`), so no carry chain or handshake drives the weakest entry's enables
+    val appended = RegNext(append) init False
+    val appendedToEmpty = RegNext(storedZero)
+    val weakerParts =
+      RegNext(Arith.comparedInParts(weakest.score, item.score, orEqual = false, MatcherConfig.scoreParts))
+    val becomesWeakest = appended && (appendedToEmpty || Arith.combineParts(weakerParts))
     val appendedScore = RegNext(item.score)
     val appendedIndex = RegNext(storedNow)
     when(becomesWeakest) {
@@ -594,9 +598,14 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
     val a = compare.acc
     val p = frame.params
     val ratioSecond = RegNext(RegNext((p.ratio * a.second).resize(distanceWidth + m.ratioFracBits + 1)))
-    val ratioOk =
-      !p.ratioTest || ((a.best.distance << m.ratioFracBits).resize(distanceWidth + m.ratioFracBits + 1) < ratioSecond)
-    // everything but the ratio decided early, in registers: the best is final from two clocks before `done`
+    // everything decided early, in registers: the best is final from `decideLatency` clocks before `done`, the
+    // ratio's product two clocks later; the best distance copied beside the ratio's comparison (the running best lies
+    // with the merge), which is registered too, so no carry chain lies before the decision
+    val bestDistance = RegNext(a.best.distance)
+    val ratioLess = RegNext(
+      (bestDistance << m.ratioFracBits).resize(distanceWidth + m.ratioFracBits + 1) < ratioSecond
+    ) init False
+    val ratioOk = !p.ratioTest || ratioLess
     val withinThreshold = RegNext(a.best.distance <= p.hammingThreshold) init False
     val accepted = done && withinThreshold && ratioOk
     when(done || emptyDone) {
@@ -615,7 +624,7 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
     val emit = RegNext(accepted && !p.crossCheck) init False
     val markAddr = RegNext(groupOf(a.best.index, groupWidth))
     val markValue = Cross()
-    markValue.distance := RegNext(a.best.distance)
+    markValue.distance := bestDistance
     markValue.mutual := True
     markValue.liveX := scan.live.x
     markValue.liveY := scan.live.y
