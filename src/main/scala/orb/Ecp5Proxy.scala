@@ -198,8 +198,38 @@ object Ecp5Proxy {
       rtlLines: Seq[String]
   )
 
-  /** added to a seed whose reset arc nextpnr cannot route, for the seed run in its place */
+  /** added to a seed whose reset arc nextpnr cannot route, for the seed run in its place (and again, up to
+    * `replacementTries` times, while the replacement fails the same way) */
   val replacementSeedOffset: Int = 100
+  val replacementTries: Int = 3
+
+  /** `seed`'s run, or, when nextpnr cannot route its reset's arc from its flip-flop to its global buffer (router2
+    * gives up on that one arc at once, before any congestion: a limit of the router at the buffer's input, not of the
+    * design), the run of seed + `replacementSeedOffset` in its place, then of + twice that and so on while the
+    * replacement fails the same way (`replacementTries` at most); the outcome says which seeds it replaces. */
+  def withReplacements(seed: Int)(route: Int => Run, resetFailed: Int => Boolean, replacing: Int => Unit): Run = {
+    @scala.annotation.tailrec
+    def attempt(failed: Seq[Int]): Run = {
+      val tried = seed + failed.size * replacementSeedOffset
+      val run = route(tried)
+      if (run.routed || !resetFailed(tried)) {
+        if (failed.isEmpty) run
+        else
+          run.copy(outcome =
+            s"${run.outcome}, in place of ${if (failed.size == 1) "seed" else "seeds"} ${failed.mkString(" and ")} " +
+              "(whose reset arc to its global buffer nextpnr could not route)"
+          )
+      } else if (failed.size == replacementTries)
+        run.copy(outcome =
+          s"${run.outcome} (the reset's arc to its global buffer, on seeds ${(failed :+ tried).mkString(", ")})"
+        )
+      else {
+        replacing(tried)
+        attempt(failed :+ tried)
+      }
+    }
+    attempt(Nil)
+  }
 
   /** nextpnr stopped on the reset's arc from its flip-flop (`reset_q`) to the global buffer (the wrapper's DCCA) */
   def resetArcFailed(work: File, seed: Int): Boolean = {
@@ -295,22 +325,14 @@ object Ecp5Proxy {
       )
       "not packed"
     }
-    // A seed on which nextpnr cannot route the reset's arc from its flip-flop to its global buffer (router2 gives up
-    // on that one arc at once, before any congestion: a limit of the router at the buffer's input, not of the
-    // design) is replaced by seed + `Ecp5Proxy.replacementSeedOffset`, and the run says so.
     val runs = seeds.map { seed =>
-      val run = placeAndRoute(bin, work, env, module, seed, minutes, targetMhz, placer)
-      if (run.routed || !resetArcFailed(work, seed)) run
-      else {
-        val replacement = seed + replacementSeedOffset
-        println(
-          s"${Report.app}: $module: seed $seed: the reset's arc to its global buffer did not route; seed $replacement instead"
-        )
-        val r = placeAndRoute(bin, work, env, module, replacement, minutes, targetMhz, placer)
-        r.copy(outcome =
-          s"${r.outcome}, in place of seed $seed (whose reset arc to its global buffer nextpnr could not route)"
-        )
-      }
+      withReplacements(seed)(
+        s => placeAndRoute(bin, work, env, module, s, minutes, targetMhz, placer),
+        s => resetArcFailed(work, s),
+        s =>
+          println(s"${Report.app}: $module: seed $s: the reset's arc to its global buffer did not route; seed " +
+            s"${s + replacementSeedOffset} instead")
+      )
     }
     Timing(module, runs, packed, (System.nanoTime() - started) / 1e9)
   }

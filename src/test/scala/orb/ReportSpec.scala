@@ -104,6 +104,26 @@ class ReportSpec extends AnyFunSuite {
     assert(!Ecp5Proxy.resetArcFailed(work, 3), "no log: no replacement")
   }
 
+  test("a seed whose reset arc fails is replaced by seed + 100, + 200 and so on, and the run says so") {
+    def run(seed: Int, routed: Boolean) =
+      Ecp5Proxy.Run(seed, if (routed) Some(100.0 + seed) else None, if (routed) "routed" else "unroutable", None, 1.0)
+    val tried = scala.collection.mutable.ArrayBuffer[Int]()
+    def route(routes: Int => Boolean)(s: Int) = { tried += s; run(s, routes(s)) }
+    // seeds 1 and 101 fail on the reset's arc, 201 routes
+    val replaced = Ecp5Proxy.withReplacements(1)(route(_ == 201), _ != 201, _ => ())
+    assert(tried == Seq(1, 101, 201) && replaced.seed == 201 && replaced.fmaxMhz.contains(301.0))
+    assert(replaced.outcome.contains("in place of seeds 1 and 101"), replaced.outcome)
+    // a routed seed, or one that fails for any other reason, stands
+    tried.clear()
+    assert(Ecp5Proxy.withReplacements(2)(route(_ => true), _ => true, _ => ()).outcome == "routed")
+    assert(!Ecp5Proxy.withReplacements(3)(route(_ => false), _ => false, _ => ()).routed && tried == Seq(2, 3))
+    // every replacement failing too: unroutable, and the seeds named
+    tried.clear()
+    val failed = Ecp5Proxy.withReplacements(1)(route(_ => false), _ => true, _ => ())
+    assert(tried == (0 to Ecp5Proxy.replacementTries).map(1 + _ * Ecp5Proxy.replacementSeedOffset))
+    assert(!failed.routed && failed.outcome.contains("on seeds 1, 101, 201, 301"), failed.outcome)
+  }
+
   test("an unroutable run names the congested blocks from router2's heat maps") {
     val work = new File("target/report-test/congestion")
     Option(work.listFiles()).foreach(_.foreach(_.delete()))
