@@ -569,8 +569,8 @@ case class OrbConfig(
     * that one's start) and after the corner two before has handed its feature on (its slot); a corner finishes at
     * most `DescriptorUnit.maxClocks` after its start; a finished feature is handed on once the matcher has taken the
     * one before (no credit for the output's registers), the matcher taking it `DescriptorUnit.handOnClocks` later
-    * at the earliest and one feature per `matcher.clocksPerFeature`. Every time here only grows when a corner comes later or takes longer (max-plus), so
-    * corners released together bound any window of corners released over time. */
+    * at the earliest and one feature per `matcher.clocksPerFeature`. Every time here only grows when a corner comes
+    * later or takes longer (max-plus), so corners released together bound any window of corners released over time. */
   def windowClocks(n: Int): Long = {
     val toFetched = DescriptorUnit.fetchClocks(descriptor).toLong
     val toFinished = DescriptorUnit.maxClocks(descriptor).toLong

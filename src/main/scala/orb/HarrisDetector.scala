@@ -9,10 +9,11 @@ import orb.Pipes.keptApart
 /** Where each step of the detector sits in its pipeline (node index); a later node means more registers in
   * between. Steps of one node share a clock; the default registers the input column three times (it comes from
   * the line buffer's RAM, which the smoother and the orientation unit share: one register may lie by the RAM, one
-  * by the Sobel adders and one on the wire between them), puts a register after every adder tree and multiplier, and gives the gradients
-  * two registers before the products (the second becomes the multiplier block's input register, the first stays
-  * beside the Sobel adders, so no adder drives the long wires to the multipliers) and the products two after them
-  * (the first is the multiplier block's output register, the second lies beside the adders that take them). */
+  * by the Sobel adders and one on the wire between them), puts a register after every adder tree and multiplier,
+  * and gives the gradients two registers before the products (the second becomes the multiplier block's input
+  * register, the first stays beside the Sobel adders, so no adder drives the long wires to the multipliers) and the
+  * products two after them (the first is the multiplier block's output register, the second lies beside the adders
+  * that take them). */
 case class HarrisStages(
     sobel: Int = 3,
     sobelDiff: Int = 4,
