@@ -537,12 +537,17 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
     val twoLater = oneLater.stage()
     val winner = twoLater.stage()
     // the level of `levelFracBits` (`BudgetModel.level`) is the rank of `rankFracBits` without its last bits
-    val level =
-      RegNext(Arith.floorShift(RegNext(RegNext(emission.outRank)), b.rankFracBits - b.levelFracBits)).resize(levelWidth)
+    val levelNext = Arith.floorShift(RegNext(RegNext(emission.outRank)), b.rankFracBits - b.levelFracBits)
+    val level = RegNext(levelNext).resize(levelWidth)
+    // the level against the cut registered with the level, from the next values of both: the same comparisons as
+    // of the registers, a clock ahead (no comparison between the level and the decision)
+    val cutLevelNext = cut.level.getAheadValue()
+    val aboveCut = RegNext(levelNext.resize(levelWidth) > cutLevelNext) init False
+    val atCutLevel = RegNext(levelNext.resize(levelWidth) === cutLevelNext) init False
     val target = io.target
     val room = RegNext(cut.taken < target) init False
     val roomAtCut = RegNext(cut.atCut < cut.remainder) init False
-    val inCut = !cut.history || level > cut.level || (level === cut.level && roomAtCut)
+    val inCut = !cut.history || aboveCut || (atCutLevel && roomAtCut)
     val take = winner.valid && room && inCut
     val deselect = winner.valid && !take
     // the count of the winner's level comes back two clocks later and is written back a clock after that
@@ -551,7 +556,7 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
     val countedLevel = Delay(level, 2)
     // counted a clock later, from registers (the next winner is `winnerClocks` away)
     val took = RegNext(take) init False
-    val tookAtCut = RegNext(cut.history && level === cut.level) init False
+    val tookAtCut = RegNext(cut.history && atCutLevel) init False
     when(took) {
       cut.taken := cut.taken + 1
       when(tookAtCut) {
@@ -609,10 +614,14 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
     val found = Reg(Bool()) init False
     // the winners left in the banks when the frame end fires, counted in three registered steps (a list's count,
     // a bank's, their sum) and so reported three clocks later
+    // (summed as wide as all the banks' entries need, not as the counter: short carry chains)
+    val dropWidth = log2Up(banks.size * cells * k + 1)
     val listCounts = RegNext(Vec(banks.map(bank => Vec(bank.map(list => CountOne(list.map(_.valid).toSeq))))))
-    val bankCounts = RegNext(Vec(listCounts.map(_.map(_.resize(f.counterWidth)).reduceBalancedTree(_ + _))))
+    val bankCounts = RegNext(Vec(listCounts.map(_.map(_.resize(dropWidth)).reduceBalancedTree(_ + _))))
     val fired = Delay(fire, 2, init = False)
-    val dropped = RegNext(fired ? bankCounts.reduceBalancedTree(_ + _) | U(0, f.counterWidth bits)) init 0
+    val dropped =
+      RegNext(fired ? bankCounts.reduceBalancedTree(_ + _).resize(f.counterWidth) | U(0, f.counterWidth bits))
+    dropped.init(0)
     // the banks emptied by their own copies of the firing, one per `FeatureBudget.cellsPerFiring` cells of a bank
     for (bank <- banks; cells <- bank.grouped(FeatureBudget.cellsPerFiring)) {
       val copy = new Firing

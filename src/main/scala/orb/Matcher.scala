@@ -287,10 +287,14 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
 
     /** entry < stored, a register beside the entry (the store does not change during a live frame's sweep) */
     val more = Reg(Bool()) init False
+
+    /** entry + 1, a register beside it: `more` compares it with the count, no incrementer before the comparison */
+    val following = Reg(UInt(countWidth bits)) init 1
     val reading = busy && more && paced.sweepRoom
     when(reading) {
-      entry := entry + 1
-      more := entry + 1 < stored
+      entry := following
+      following := following + 1
+      more := following < stored
     }
     when(busy && !more) {
       activity := Activity.IDLE
@@ -298,6 +302,7 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
     when(item.fire && item.end.now && !frame.keyNow) {
       activity := Activity.SWEEP
       entry := 0
+      following := 1
       more := stored =/= 0
     }
     val lane = entry.resize(log2Up(P) max 1)

@@ -247,11 +247,12 @@ class OrientationUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, c
   }
   io.oriented << moments.stage()
 
-  // The clock's drops registered where they arise, summed into a register of their own, then counted (the counter
-  // lags the drops by three clocks).
+  // The clock's drops registered where they arise, summed in two registered steps (one adder each), then counted
+  // (the counter lags the drops by four clocks).
   val singleDrops = RegNext(Vec(queueDrop, staleDrop, faultDrop).asBits) init 0
-  val dropsNow =
-    RegNext(CountOne(singleDrops).resize(dropWidth) + flushedHeld.resize(dropWidth) + flushedQueued) init 0
+  val singleAndHeld = RegNext(CountOne(singleDrops).resize(dropWidth) + flushedHeld.resize(dropWidth)) init 0
+  val queuedLater = RegNext(flushedQueued) init 0
+  val dropsNow = RegNext(singleAndHeld + queuedLater) init 0
   val drops = Reg(f.counter()) init 0
   drops := drops + dropsNow.resize(f.counterWidth)
   io.dropped := drops
