@@ -35,6 +35,9 @@ class GroupPlanner(bankWidth: Int) extends Component {
     val advance = in Vec (Bool(), latency)
     val points = in Vec (PlannedPoint(bankWidth), pointsPerGroup)
     val plan = out(GroupPlan())
+
+    /** the next value of `plan.single` (what its register loads now) */
+    val singleNext = out(Bool())
   }
   def step[T <: Data](v: T, s: Int): T = RegNextWhen(v, io.advance(s))
 
@@ -130,7 +133,9 @@ class GroupPlanner(bankWidth: Int) extends Component {
     plan.issues := Mux(group.fits, U(1, issuesWidth bits), testStart.last)
     plan.single := plan.issues === 1
     plan.double := plan.issues === 2
-    io.plan := step(plan, 3)
+    val registered = step(plan, 3)
+    io.plan := registered
+    io.singleNext := registered.single.getAheadValue()
   }
 
   /** the bits each step's enable loads */
