@@ -978,7 +978,7 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
 
       /** a copy of `advance` (kept apart) served by copy `j` of the slots' abandonment */
       def advanceCopy(j: Int): Bool = {
-        val a = advancing.getOrElseUpdate(j, Advancing(j))
+        val a = advancing.getOrElseUpdate(j, Advancing(j).setName(s"advancing$j"))
         keptApart(RegNext(Mux(advance, a.ifAdvancing, a.ifHolding)) init True)
       }
       // the copies of `advance`, a few at a time from their own copies of the slots' abandonment

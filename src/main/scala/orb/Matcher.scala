@@ -643,12 +643,17 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
     val addr = Delay(sweep.addr, crossLatency)
     val lanes =
       for ((r, l) <- reads.zipWithIndex) yield new Area {
-        val here = Delay(sweep.reading && laneIs(sweep.lane, l), crossLatency, init = False)
-        val looked = Delay(lookup.reading && laneIs(lookup.bestLane, l), crossLatency, init = False)
+        // the flags delayed to a clock before they are used, then a register (kept apart) per use, beside what it
+        // selects: the cross word (and the mark), the position, the clear's write (no one flag drives them all)
+        val hereBefore = Delay(sweep.reading && laneIs(sweep.lane, l), crossLatency - 1, init = False)
+        val lookedBefore = Delay(lookup.reading && laneIs(lookup.bestLane, l), crossLatency - 1, init = False)
+        val here = keptApart(RegNext(hereBefore) init False)
+        val keyPicked = keptApart(RegNext(hereBefore || lookedBefore) init False)
+        val clearHere = keptApart(RegNext(hereBefore) init False)
         val emit = RegNext(here && r.cross.mutual && frame.params.crossCheck) init False
         val cross = RegNext(Mux(here, r.cross, r.cross.getZero))
-        val keyX = RegNext(Mux(here || looked, r.keyX, U(0, cw bits)))
-        val keyY = RegNext(Mux(here || looked, r.keyY, U(0, cw bits)))
+        val keyX = RegNext(Mux(keyPicked, r.keyX, U(0, cw bits)))
+        val keyY = RegNext(Mux(keyPicked, r.keyY, U(0, cw bits)))
       }
     val cross = Cross()
     cross.assignFromBits(lanes.map(_.cross.asBits).reduce(_ | _))
@@ -695,7 +700,7 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
     val c = compare.results(l)
     val markHere = decide.markLanes(l)
     // the lane a clear is for, decided with the read and delayed beside it (no lane comparison on the way)
-    val clearHere = swept.lanes(l).here
+    val clearHere = swept.lanes(l).clearHere
     val address = Mux(
       scoreHere,
       scoreAddr,
