@@ -957,29 +957,27 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
         * from the next values of what it reads. So a copy, which lies beside what it enables, is one LUT from
         * registers, and no logic shared by every copy lies before the wires to them. */
       case class Advancing(j: Int) extends Area {
-        def here(tag: Bool, ab1: Bool, ab0: Bool): Bool = Mux(tag, ab1, ab0)
-        val ab1 = slots(1).abandonCopies(j)
-        val ab0 = slots(0).abandonCopies(j)
-        val (ab1Next, ab0Next) = (ab1.getAheadValue(), ab0.getAheadValue())
+        val ab1Next = slots(1).abandonCopies(j).getAheadValue()
+        val ab0Next = slots(0).abandonCopies(j).getAheadValue()
         // after reset no group is planned (it advances) and no slot is abandoned (`lastNext` low): the registers'
-        // initial values are the choices' values then, whatever the tags hold
-        // (kept apart: every `j`'s are the same values, meant to lie with their copies)
+        // initial values are the choices' values then, whatever the tags hold. Kept apart: every `j`'s are the same
+        // values, meant to lie with their copies.
         val ifAdvancing = keptApart(
           RegNext(
-            here(planned.token.tag.getAheadValue(), ab1Next, ab0Next) || !planned.token.valid.getAheadValue() ||
+            Mux(planned.token.tag.getAheadValue(), ab1Next, ab0Next) || !planned.token.valid.getAheadValue() ||
               planner.io.singleNext
           ) init True
         )
         val ifHolding = keptApart(
-          RegNext(here(token.tag.getAheadValue(), ab1Next, ab0Next) || lastNext.getAheadValue()) init False
+          RegNext(Mux(token.tag.getAheadValue(), ab1Next, ab0Next) || lastNext.getAheadValue()) init False
         )
       }
-      val advancing = scala.collection.mutable.Map[Int, Advancing]()
+      val advancing =
+        (0 until DescriptorUnit.advanceCopies / DescriptorUnit.advanceCopiesPerAbandon).map(Advancing(_))
 
       /** a copy of `advance` (kept apart) served by copy `j` of the slots' abandonment */
       def advanceCopy(j: Int): Bool = {
-        val a = advancing.getOrElseUpdate(j, Advancing(j).setName(s"advancing$j"))
-        keptApart(RegNext(Mux(advance, a.ifAdvancing, a.ifHolding)) init True)
+        keptApart(RegNext(Mux(advance, advancing(j).ifAdvancing, advancing(j).ifHolding)) init True)
       }
       // the copies of `advance`, a few at a time from their own copies of the slots' abandonment
       val advanceCopies = (0 until DescriptorUnit.advanceCopies).map { i =>
