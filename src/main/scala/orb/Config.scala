@@ -451,9 +451,6 @@ object MatcherConfig {
     * unless read into a register of its lane, the lanes ORed into a register, then the push's register) */
   val pushLatency: Int = crossLatency + 3
 
-  /** Parts of the input register's payload (a feature), each loaded by its own copy of the register's empty flag. */
-  val itemParts: Int = 8
-
   /** Parts of the score comparisons of the rescan and the replacement, side by side (`Arith.comparedInParts`): a
     * part's equality one LUT level less than in halves. */
   val scoreParts: Int = 3
@@ -461,8 +458,9 @@ object MatcherConfig {
   /** Parts of a copy of the live descriptor, each loaded by its own copy of the idle flag. */
   val liveDescriptorParts: Int = 8
 
-  /** Lanes that share a copy of the live descriptor (a pair: the copies are flip-flops alone in their LEs). */
-  val lanesPerLiveCopy: Int = 2
+  /** Lanes that share a copy of the live descriptor: one, each copy beside its lane's RAMs (the lanes lie apart; the
+    * copies are flip-flops alone in their LEs, paid for by the input register the matcher no longer has). */
+  val lanesPerLiveCopy: Int = 1
 
   /** The popcount adds the counts of its chunks in a binary tree of this many levels. */
   def treeLevels(m: MatcherConfig): Int = log2Up(OrbDescriptorConfig.descriptorBits / m.popcountChunkBits)

@@ -1199,7 +1199,9 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
     * names: the copies follow the tag a clock late (`DescriptorEngine.leftLast`) and a finished slot's descriptor
     * stays until it runs a corner again. The output is offered once the descriptor is in (`shown`, a clock after
     * `full`): a feature reaches the matcher `DescriptorUnit.handOnClocks` after it leaves the engine at the
-    * earliest, one per three clocks, where they come at most one per descriptor. */
+    * earliest, one per three clocks, where they come at most one per descriptor. A taken item's fields load again
+    * no earlier than a clock after the take (its descriptor two), and nothing is offered in that clock: the
+    * matcher's input contract, which lets it read the taken feature there instead of copying it into a register. */
   val leaving = new Area {
     val full = RegInit(False)
     val shown = RegInit(False)
@@ -1283,8 +1285,8 @@ object DescriptorUnit {
   def headClocks(d: OrbDescriptorConfig): Int = AngleSearch.clocks(d) + rotationLatency + dispatchClocks
 
   /** Clocks from a feature leaving the engine (its slot handed on) to the matcher's scan taking it, at the earliest:
-    * the output register offers it two clocks later (its descriptor loads a clock late, see `leaving`), the
-    * matcher's input register holds it a clock more. */
+    * the output register offers it two clocks later (its descriptor loads a clock late, see `leaving`), the matcher
+    * takes it a clock after it is first offered (its kind registered: `Matcher`'s input). */
   val handOnClocks: Int = 3
 
   /** copies of the front end's `advance`, each enabling a share of its registers */

@@ -28,7 +28,12 @@ import orb.Pipes.keptApart
   * sweep reads the next entry, only when the FIFO has room), so nothing is lost to a consumer that is merely
   * slower than one per clock. When the FIFO has been full for `outputTimeout` clocks (a stalled consumer) it stops
   * waiting and drops, and counts, what does not fit until the consumer takes one again: the feature stream keeps
-  * flowing, so later frames are still matched. */
+  * flowing, so later frames are still matched.
+  *
+  * The input's contract (the descriptor unit's output register keeps it): an offered item stays, unchanged, until it
+  * is taken and in the clock after its take, and no item is offered in that clock. The matcher reads the taken
+  * feature there (a replacement writes it a clock after its take) and has no input register of its own; it takes an
+  * item the clock after it is first offered at the earliest (its kind registered by then). */
 class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: MatcherConfig) extends Component {
   import MatcherConfig.{crossLatency, decideLatency, distanceWidth, none, pushLatency, readLatency}
   val io = new Bundle {
@@ -67,11 +72,11 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
   )
   def clearedCross: Cross = { val c = Cross(); c.distance := none; c.mutual := False; c.liveX := 0; c.liveY := 0; c }
 
-  // The feature stream through a register at the boundary, valid and ready both registered (`halfPipe`: one item
-  // per two clocks, where features come at most one per descriptor; its payload loaded in parts, each by a copy of
-  // the empty flag): the load and the scan decide on local copies, and the copy is enabled by a register, not by
+  // The input port itself, no register of its own: the contract (above) keeps a taken item a clock after its take,
+  // where the load and the scan's copies read it; its valid is the sender's register, its ready two registers'
+  // AND (`ready` and `seen`, below), so the load and the scan decide on local copies enabled by registers, not by
   // the handshake.
-  val item = Pipes.halfPipe(io.features, MatcherConfig.itemParts)
+  val item = io.features
   val isKey = item.keyframe
 
   // Frame state: the first item of a frame samples the parameters and, on a keyframe, empties the store.
@@ -83,10 +88,29 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
     params.ratio init m.defaultRatio
     params.ratioTest init Bool(m.defaultRatioTest)
     params.crossCheck init Bool(m.defaultCrossCheck)
-    val keyNow = Mux(first, isKey, key)
-    when(item.fire) {
-      first := item.end.now
-      when(first) { key := isKey; params := io.params }
+  }
+
+  // The offered item's kind, registered while it waits: an item is taken no earlier than the clock after it is first
+  // offered (`seen`), so each decision at a take is one LUT of registers (the handshake's and the kind's), not the
+  // frame state and the item's flags through two levels. The frame state is up to date as an item is first offered
+  // (it changes as an item is taken, and none is offered in the clock after a take: the input's contract).
+  val seen = RegNext(item.valid) init False
+  val kind = new Area {
+    val keyNow = Mux(frame.first, isKey, frame.key)
+    val keyFeature = RegNext(keyNow && !item.end.now)
+    val liveFeature = RegNext(!keyNow && !item.end.now)
+    val keyEnd = RegNext(keyNow && item.end.now)
+    val liveEnd = RegNext(!keyNow && item.end.now)
+    val end = RegNext(item.end.now)
+
+    /** the keyframe's first item: it empties the store */
+    val emptiesStore = RegNext(frame.first && isKey)
+  }
+  when(item.fire) {
+    frame.first := kind.end
+    when(frame.first) {
+      frame.key := isKey
+      frame.params := io.params
     }
   }
 
@@ -98,9 +122,10 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
   val activity = RegInit(Activity.IDLE)
 
   val stored = Reg(UInt(countWidth bits)) init 0
-  val storedNow = Mux(frame.first && isKey, U(0, countWidth bits), stored)
+  val storedNow = Mux(kind.emptiesStore, U(0, countWidth bits), stored)
   // stored + 1 in a register beside it: the count changes only as a keyframe feature is taken, and items are at
-  // least two clocks apart (`halfPipe`), so the next one finds it up to date (no incrementer after the handshake)
+  // least two clocks apart (the input's contract), so the next one finds it up to date (no incrementer after the
+  // handshake)
   val storedPlusOne = RegNext(stored + 1) init 1
   // The groups a scan reads: enough for the stored entries, rounded up to an even count (the accumulation takes
   // them in pairs; a group beyond the stored entries holds none that is real (`index < stored`): stale entries, or
@@ -149,10 +174,10 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
   // the weakest replaces it, after which a rescan of the scores finds the new weakest. Every feature beyond the
   // capacity, kept or not, costs one: counted as overflow.
   val load = new Area {
-    val keyFeature = item.fire && frame.keyNow && !item.end.now
+    val keyFeature = item.fire && kind.keyFeature
     // the store's count tested in registers a clock late: it changes only as a keyframe feature is taken, and items
-    // are at least two clocks apart (`halfPipe`), so the next one meets the tests of the count it left
-    val emptied = frame.first && isKey
+    // are at least two clocks apart (the input's contract), so the next one meets the tests of the count it left
+    val emptied = kind.emptiesStore
     val full = RegNext(stored === m.storeCapacity) init False
     val room = emptied || !full
     val storedZero = emptied || groupsCompared.zero
@@ -163,9 +188,9 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
 
     /** a keyframe feature met the full store in the last clock: it replaces the weakest entry if it is stronger,
       * compared in the clock of the take (into registers, every clock) and decided now from registers: no
-      * comparison between the handshake or the scores and the store's enables. The item register still holds it
-      * (`halfPipe` loads the next item a clock after the take), and the weakest has not changed since (it changes a
-      * clock after an append, or at a rescan's end, both at least a clock before a take). */
+      * comparison between the handshake or the scores and the store's enables. The input still holds it (the
+      * input's contract), and the weakest has not changed since (it changes a clock after an append, or at a
+      * rescan's end, both at least a clock before a take). */
     val metFull = RegNext(meetsFull) init False
     // compared in parts side by side into registers, combined after them (no carry through the whole score)
     val strongerParts =
@@ -187,13 +212,13 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
     /** a write (an append or a replacement) for lane `l`: the two never come in the same clock */
     def writes(l: Int): Bool = (append && Mux(emptied, Bool(l == 0), storedLanes(l))) || (replace && weakestLanes(l))
     val overflow = meetsFull
-    when(item.fire && frame.first && isKey) { stored := 0 }
+    when(item.fire && kind.emptiesStore) { stored := 0 }
     when(append) {
-      stored := Mux(frame.first && isKey, U(1, countWidth bits), storedPlusOne)
+      stored := Mux(kind.emptiesStore, U(1, countWidth bits), storedPlusOne)
     }
     // an appended feature that becomes the weakest: compared as it is taken (`item.score < weakest.score`, in parts
     // into registers, as `strongerParts`), decided and written a clock later (the next item is taken two clocks
-    // after at the earliest: `halfPipe`), so no carry chain or handshake drives the weakest entry's enables
+    // after at the earliest: the input's contract), so no carry chain or handshake drives the weakest entry's enables
     val appended = RegNext(append) init False
     val appendedToEmpty = RegNext(storedZero)
     val weakerParts =
@@ -238,7 +263,7 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
       issuing := !lastGroup
       lastGroup := group === groupsCompared.lessTwo
     }
-    val start = item.fire && !frame.keyNow && !item.end.now
+    val start = item.fire && kind.liveFeature
     when(start) {
       activity := Activity.SCAN
       group := 0
@@ -299,11 +324,13 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
     when(busy && !more) {
       activity := Activity.IDLE
     }
-    when(item.fire && item.end.now && !frame.keyNow) {
+    when(item.fire && kind.liveEnd) {
       activity := Activity.SWEEP
       entry := 0
       following := 1
-      more := stored =/= 0
+      // the count's test in its register (a live frame does not change the count; the keyframe's last take was two
+      // clocks or more before)
+      more := !groupsCompared.zero
     }
     val lane = entry.resize(log2Up(P) max 1)
     val addr = groupOf(entry, groupWidth)
@@ -330,7 +357,7 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
     when(busy && atLast) {
       activity := Activity.IDLE
     }
-    when(item.fire && item.end.now && frame.keyNow) {
+    when(item.fire && kind.keyEnd) {
       activity := Activity.KEY_END
       group := 0
       atLast := Bool(m.groups == 1)
@@ -361,10 +388,6 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
       val entry = Entry()
       entry.assignFromBits(Cat(lane.store.map(_.read(address(scan.readAddr)))).resize(entryWidth))
       val cross = RegNext(RegNext(lane.cross.readSync(crossAddr)))
-
-      /** the entry's position beside its cross word, for the sweep */
-      val keyX = RegNext(entry.x)
-      val keyY = RegNext(entry.y)
     }
 
   // The rescan's data path: the scores read through the cross port, the lowest (first on ties) of them all.
@@ -375,22 +398,24 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
     val read = Delay(rescan.issuing, crossLatency + 1, init = False)
     val base = Delay(rescan.group.resize(countWidth) |<< log2Up(P), crossLatency + 1)
     val first = Delay(rescan.issuing && rescan.group === 0, crossLatency + 1, init = False)
-    // the group's lowest score, the first lane on ties, in four registered steps: every pair of lanes compared side
-    // by side, in parts (no carry through a whole score in one clock), the parts combined, the lane below every
-    // lane before it and not above any after it picked, its score selected (no comparison waits for a choice, no
-    // choice for a comparison). Only the pairs of a lane with an earlier one are compared: the picks need no other.
-    val values = scores.map(s => Delay(s, 3))
+    // the group's lowest score, the first lane on ties, in three registered steps: every pair of lanes compared side
+    // by side, in parts (no carry through a whole score in one clock), the parts combined, then the lane below every
+    // lane before it and not above any after it picked and its score selected in one step (an AND of registered
+    // comparisons before the selection: no comparison waits for a choice, no choice for a comparison, and the
+    // scores wait two clocks, not three). Only the pairs of a lane with an earlier one are compared: the picks need
+    // no other.
+    val values = scores.map(s => Delay(s, 2))
     def below(i: Int, j: Int): Bool = {
       require(j < i)
       val parts = Arith.comparedInParts(scores(j), scores(i), orEqual = false, MatcherConfig.scoreParts)
       RegNext(Arith.combineParts(RegNext(parts)))
     }
     val belowEarlier = (0 until P).map(i => (0 until i).map(j => below(i, j)))
-    val picks = RegNext(Vec((0 until P).map { i =>
+    val picks = Vec((0 until P).map { i =>
       ((0 until i).map(j => belowEarlier(i)(j)) ++ (i + 1 until P).map(j => !belowEarlier(j)(i))).foldLeft(True)(_ && _)
-    }))
+    })
     val low = RegNext(MuxOH.or(picks, values))
-    val levels = 4
+    val levels = 3
     val index = Delay(base, levels) | RegNext(OHToUInt(picks)).resize(countWidth)
     val valid = Delay(read, levels, init = False)
     val firstD = Delay(first, levels, init = False)
@@ -469,9 +494,8 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
     // A copy of the live descriptor per `lanesPerLiveCopy` lanes (kept apart, beside their RAMs: one copy would
     // drive all the lanes' comparisons across the chip), copied while the scan is idle as `scan.live` is, in parts,
     // each by an enable from its own copy of the idle flag (no one flag drives every bit). The flag is a clock late
-    // (from the activity register, not its next value): in a scan's first clock the item register still holds the
-    // feature that started it (it loads the next one a clock later), and the first entry it meets is read clocks
-    // after that.
+    // (from the activity register, not its next value): in a scan's first clock the input still holds the feature
+    // that started it (the input's contract), and the first entry it meets is read clocks after that.
     val liveCopies = (0 until (P + MatcherConfig.lanesPerLiveCopy - 1) / MatcherConfig.lanesPerLiveCopy).map { _ =>
       val partBits = item.descriptor.getWidth / MatcherConfig.liveDescriptorParts
       val parts = (0 until MatcherConfig.liveDescriptorParts).map { i =>
@@ -643,25 +667,29 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
     val addr = Delay(sweep.addr, crossLatency)
     val lanes =
       for ((r, l) <- reads.zipWithIndex) yield new Area {
-        // the flags delayed to a clock before they are used, then a register (kept apart) per use, beside what it
-        // selects: the cross word (and the mark), the position, the clear's write (no one flag drives them all)
-        val hereBefore = Delay(sweep.reading && laneIs(sweep.lane, l), crossLatency - 1, init = False)
-        val lookedBefore = Delay(lookup.reading && laneIs(lookup.bestLane, l), crossLatency - 1, init = False)
+        // the flags delayed to the clock before each use, then a register (kept apart) per use, beside what it
+        // selects: the cross word (and the mark), the clear's write, the position (no one flag drives them all). The
+        // position comes with the entry, a clock before the cross word: picked a clock earlier (the merged position
+        // waits a clock instead: one register, not one per lane)
+        val sweptEarly = Delay(sweep.reading && laneIs(sweep.lane, l), crossLatency - 2, init = False)
+        val lookedEarly = Delay(lookup.reading && laneIs(lookup.bestLane, l), crossLatency - 2, init = False)
+        val hereBefore = RegNext(sweptEarly) init False
         val here = keptApart(RegNext(hereBefore) init False)
-        val keyPicked = keptApart(RegNext(hereBefore || lookedBefore) init False)
         val clearHere = keptApart(RegNext(hereBefore) init False)
+        val keyPicked = keptApart(RegNext(sweptEarly || lookedEarly) init False)
         val emit = RegNext(here && r.cross.mutual && frame.params.crossCheck) init False
         val cross = RegNext(Mux(here, r.cross, r.cross.getZero))
-        val keyX = RegNext(Mux(keyPicked, r.keyX, U(0, cw bits)))
-        val keyY = RegNext(Mux(keyPicked, r.keyY, U(0, cw bits)))
+        val keyX = RegNext(Mux(keyPicked, r.entry.x, U(0, cw bits)))
+        val keyY = RegNext(Mux(keyPicked, r.entry.y, U(0, cw bits)))
       }
     val cross = Cross()
     cross.assignFromBits(lanes.map(_.cross.asBits).reduce(_ | _))
 
-    /** the position read (the scan's best entry's at its decision) */
+    /** the position read (the scan's best entry's at its decision), a clock behind the lanes' registers, as the
+      * cross word */
     val key = Position()
-    key.x := lanes.map(_.keyX).reduce(_ | _)
-    key.y := lanes.map(_.keyY).reduce(_ | _)
+    key.x := RegNext(lanes.map(_.keyX).reduce(_ | _))
+    key.y := RegNext(lanes.map(_.keyY).reduce(_ | _))
     val out = new Area {
       val emit = RegNext(lanes.map(_.emit).orR) init False
       val liveX = RegNext(cross.liveX)
@@ -680,7 +708,7 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
     // the address and the write enable registered per part (`StorePart`: kept apart, so no one address register
     // drives every RAM of the store, and the enable is not merged with its twin, the score word's decision below,
     // which drives the cross state's selection apart). The data are the live registers, the lane's copy of the
-    // descriptor: they copy the item register every clock of a keyframe (no scan runs then), and the item holds a
+    // descriptor: they copy the input every clock of a keyframe (no scan runs then), and the input holds a
     // feature for a clock after its take, so a clock after the take (an append's write) and two clocks after (a
     // replacement's) they hold the feature taken
     val liveEntry = Entry()
@@ -722,13 +750,15 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
 
   // Ready for the next item when nothing is busy: a register, computed from the next values of the flags it depends
   // on (the FIFO's room from its register: see `paced`), so no decision hangs on the handshake or the FIFO's
-  // pointers and nothing waits for the readiness's own logic.
+  // pointers and nothing waits for the readiness's own logic; and only for an item offered since the last clock
+  // (`seen`, whose kind is registered by then).
   // A keyframe feature that meets a full store holds the next item two clocks, whether it replaces (the rescan
   // starts then) or not: no score comparison in the readiness's logic.
   val readyNext =
     activity.getAheadValue() === Activity.IDLE && !sweep.drainingNext && !load.meetsFull &&
       !load.metFull && (paced.roomForItem || paced.giveUp.getAheadValue())
-  item.ready := RegNext(readyNext) init True
+  val ready = RegNext(readyNext) init True
+  item.ready := ready && seen
 
   // The correspondence registered on its way into the FIFO (the lanes' RAMs are far from it): a scan's is pushed a
   // clock after its decision, the sweep's `pushLatency` clocks after its read.

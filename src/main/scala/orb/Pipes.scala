@@ -30,18 +30,10 @@ object Pipes {
   def keepValidsApart(pipeline: StagePipeline): Unit =
     pipeline.nodes.values.map(_.valid).filter(_.isReg).foreach(keptApart(_))
 
-  /** `in.halfPipe()` (a beat every other clock, the ready the valid register's complement) whose payload is loaded in
-    * `parts` slices, each by its own copy of the "empty" flag (kept apart): no one register enables every bit of a
-    * wide payload, and the valid register drives the handshake only. The payload's fields `kept` stay apart as
-    * registers (copies of one value that drive different logic). A `flush` empties it (what it takes in that clock
-    * too). */
-  def halfPipe[T <: Data](
-      in: Stream[T],
-      parts: Int = 1,
-      flush: Bool = null,
-      kept: T => Seq[Data] = (_: T) => Nil
-  ): Stream[T] = {
-    require(parts >= 1)
+  /** `in.halfPipe()` (a beat every other clock, the ready the valid register's complement) whose payload is loaded by
+    * its own copy of the "empty" flag (kept apart): the valid register drives the handshake only. A `flush` empties
+    * it (what it takes in that clock too). */
+  def halfPipe[T <: Data](in: Stream[T], flush: Bool = null): Stream[T] = {
     val out = Stream(cloneOf(in.payload))
     val valid = RegInit(False)
     when(in.valid) {
@@ -56,16 +48,9 @@ object Pipes {
       }
     }
     val payload = Reg(cloneOf(in.payload))
-    kept(payload).foreach(keptApart(_))
-    val bits = in.payload.asBits
-    val width = bits.getWidth
-    val partWidth = (width + parts - 1) / parts
-    for (p <- 0 until parts if p * partWidth < width) {
-      val empty = keptApart(RegNext(!valid.getAheadValue()) init True)
-      val slice = (width - p * partWidth) min partWidth
-      when(empty) {
-        payload.assignFromBits(bits(p * partWidth, slice bits), p * partWidth, slice bits)
-      }
+    val empty = keptApart(RegNext(!valid.getAheadValue()) init True)
+    when(empty) {
+      payload := in.payload
     }
     in.ready := !valid
     out.valid := valid

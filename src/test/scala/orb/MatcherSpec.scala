@@ -37,15 +37,9 @@ class MatcherSpec extends AnyFunSuite {
     compiled("simWorkspace/matcher", m)
   }
 
-  /** a Verilator model of the matcher with `config`, its internal item handshake visible (what a hold is measured
-    * on) */
+  /** a Verilator model of the matcher with `config` */
   def compiled(workspace: String, config: MatcherConfig): SimCompiled[Matcher] =
-    CoreSim.simConfig(workspace).compile {
-      val dut = new Matcher(f, HarrisConfig(), OrbDescriptorConfig(), config)
-      dut.item.valid.simPublic()
-      dut.item.ready.simPublic()
-      dut
-    }
+    CoreSim.simConfig(workspace).compile(new Matcher(f, HarrisConfig(), OrbDescriptorConfig(), config))
 
   /** a store of one group (as many entries as comparators): a scan is a single read */
   val mOneGroup: MatcherConfig = m.copy(storeCapacity = m.comparators)
@@ -90,8 +84,8 @@ class MatcherSpec extends AnyFunSuite {
       val waiting = ArrayBuffer[Long]()
       dut.clockDomain.onSamplings {
         clocks += 1
-        if (dut.item.valid.toBoolean && waiting.size == taken.size) waiting += clocks
-        if (dut.item.valid.toBoolean && dut.item.ready.toBoolean) taken += clocks
+        if (in.valid.toBoolean && waiting.size == taken.size) waiting += clocks
+        if (in.valid.toBoolean && in.ready.toBoolean) taken += clocks
         val c = dut.io.correspondences
         if (c.valid.toBoolean && c.ready.toBoolean)
           got += Correspondence(c.liveX.toInt, c.liveY.toInt, c.keyX.toInt, c.keyY.toInt, c.distance.toInt)
@@ -114,7 +108,10 @@ class MatcherSpec extends AnyFunSuite {
             if (stallFor > 0 && stallLeft < 0) stallLeft = stallFor
         }
         dut.clockDomain.waitSamplingWhere(in.ready.toBoolean)
+        // the input's contract (the descriptor unit's output register keeps it): the taken item stays, unoffered,
+        // for the clock after its take
         in.valid #= false
+        dut.clockDomain.waitSampling()
       }
       // Drain: until every correspondence counted by the matcher has arrived and nothing has been pushed or taken
       // for longer than a scan, a sweep of the store and a full FIFO's pushes in flight take (a bound, so that a lost
@@ -134,8 +131,8 @@ class MatcherSpec extends AnyFunSuite {
       }
       out = RtlMatches(got.toSeq, s.stored.toLong, s.storeOverflow.toLong, s.matches.toLong, s.matchDrops.toLong)
       if (ready >= 1 && stallFor == 0) {
-        // item k was waiting when item k - 1 was taken (it reaches the matcher's register two clocks after a take at
-        // the earliest: the register empties, then loads): the clocks between the takes are k - 1's hold
+        // item k was waiting when item k - 1 was taken (it is offered two clocks after a take at the earliest: the
+        // input's contract): the clocks between the takes are k - 1's hold
         val holds =
           (1 until taken.size).filter(k => waiting(k) <= taken(k - 1) + 2).map(k => (k - 1, taken(k) - taken(k - 1)))
         val over = holds.filter { case (k, h) => h > (if (stream(k).isRight) m.clocksPerFeature else m.frameEndClocks) }

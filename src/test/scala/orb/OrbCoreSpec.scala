@@ -40,6 +40,7 @@ class OrbCoreSpec extends AnyFunSuite {
       rtl.features.size + rtl.featureDrops + rtl.deselected == rtl.corners.size,
       s"$name: every corner is a feature, deselected or a counted drop"
     )
+    assert(rtl.holdBreaks.isEmpty, s"$name: the matcher's input contract: ${rtl.holdBreaks.take(5).mkString("; ")}")
     println(f"[orb] $name%-32s ${frames.size} frames ${frames.head.width}x${frames.head.height}: " +
       s"${rtl.corners.size} corners, ${rtl.deselected} deselected, ${rtl.features.size} features, ${rtl.frameEnds.size} frame ends, ${rtl.cycles} clocks")
     (model, rtl)
@@ -109,6 +110,7 @@ class OrbCoreSpec extends AnyFunSuite {
       rtl = CoreSim.result(dut, monitor)
     }
     assert(model.features.nonEmpty && rtl.featureStream == model.featureStream && rtl.featureDrops == 0)
+    assert(rtl.holdBreaks.isEmpty, rtl.holdBreaks.take(5).mkString("; "))
     println(s"[orb] backpressure: ${rtl.features.size} features through a consumer ready half of the time")
   }
   test("a consumer that stops reading for two frames: the camera never stalls, drops are counted, then it recovers") {

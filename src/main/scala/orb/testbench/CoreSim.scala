@@ -48,7 +48,8 @@ final case class RtlResult(
     featureCount: Long,
     featureDrops: Long,
     deselected: Long,
-    engineRuns: Seq[EngineRun] = Nil
+    engineRuns: Seq[EngineRun] = Nil,
+    holdBreaks: Seq[String] = Nil
 ) {
   def features: Seq[Feature] = featureStream.collect { case Right(f) => f }
   def corners: Seq[Corner] = events.collect { case CornerEvent(c) => c }
@@ -131,6 +132,16 @@ object CoreSim {
     private val overlapped = Array(false, false)
     private val groups = orb.model.DescriptorSchedule.groups
     var cycles = 0L
+
+    /** breaks of the features' hold (the matcher's input contract, `Matcher`): a taken item stays, unchanged and
+      * not offered, in the clock after its take */
+    val holdBreaks = ArrayBuffer[String]()
+    private var taken: Option[(Long, Seq[BigInt])] = None
+    private def fields(d: Data): Seq[BigInt] = d.flatten.map {
+      case b: Bool => BigInt(if (b.toBoolean) 1 else 0)
+      case v: BitVector => v.toBigInt
+      case other => throw new IllegalArgumentException(s"unexpected field $other")
+    }.toSeq
     dut.clockDomain.onSamplings {
       cycles += 1
       for ((s, i) <- engine.slots.zipWithIndex) {
@@ -159,7 +170,13 @@ object CoreSim {
         cornerClocks += cycles
       }
       val f = dut.io.features
+      taken.foreach { case (clock, payload) =>
+        if (f.valid.toBoolean || fields(f.payload) != payload)
+          holdBreaks += s"clock $clock: the taken feature is not held, unoffered, in the clock after"
+      }
+      taken = None
       if (f.valid.toBoolean && f.ready.toBoolean) {
+        taken = Some((cycles, fields(f.payload)))
         if (f.end.now.toBoolean) featureStream += Left(FrameEnd(f.end.info.ok.toBoolean, f.end.info.keyframe.toBoolean))
         else {
           val bits = f.descriptor.toBigInt
@@ -229,7 +246,8 @@ object CoreSim {
       dut.io.status.features.toLong,
       dut.io.status.featureDrops.toLong,
       dut.io.status.deselected.toLong,
-      monitor.engineRuns.toSeq
+      monitor.engineRuns.toSeq,
+      monitor.holdBreaks.toSeq
     )
 
   /** One complete run from reset: returns what the core emitted and its counters. */
