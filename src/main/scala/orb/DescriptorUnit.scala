@@ -148,9 +148,12 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
         writeBank(b) := RegNext(writesHere && next) init False
       }
     }
-    // address and data, one copy per cluster of four banks (kept apart): no one register drives every bank
+    // address and data, one copy per cluster of four banks (kept apart): no one register drives every bank. The
+    // column is subtracted once, from the smoother's position into a register beside the beat's (`s`, loaded every
+    // clock as it is), so each copy takes a register across the banks, not a subtraction of its own.
+    val column = RegNext((io.smoothed.x - blurRadius).resize(colWidth))
     val writeAddress = Seq.fill(writeClusters) {
-      keptApart(RegNext((slotNext.lsb ## (s.x - blurRadius).resize(colWidth)).asUInt))
+      keptApart(RegNext((slotNext.lsb ## column).asUInt))
     }
     val writeData = Seq.fill(writeClusters) {
       keptApart(RegNext(s.smoothed))

@@ -387,7 +387,12 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
       // each part through its own address copy and its RAMs' output register
       val entry = Entry()
       entry.assignFromBits(Cat(lane.store.map(_.read(address(scan.readAddr)))).resize(entryWidth))
-      val cross = RegNext(RegNext(lane.cross.readSync(crossAddr)))
+      val crossRead = RegNext(lane.cross.readSync(crossAddr))
+      val cross = RegNext(crossRead)
+
+      /** the cross word's distance again (kept apart), beside the scan's comparison: the cross word's register also
+        * serves the rescan and the sweep, apart */
+      val crossDistance = keptApart(RegNext(crossRead.distance))
     }
 
   // The rescan's data path: the scores read through the cross port, the lowest (first on ties) of them all.
@@ -512,10 +517,9 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
       for ((r, l) <- reads.zipWithIndex) yield new Area {
         val liveDescriptor = liveCopies(l / MatcherConfig.lanesPerLiveCopy)
         val count = MatcherConfig.hamming(r.entry.descriptor, liveDescriptor, m)
-        val old = r.cross
         val index = (group.resize(countWidth) |<< log2Up(P)) | U(l, countWidth bits)
         val real = reals(l)
-        val wins = valid && real && count < old.distance
+        val wins = valid && real && count < r.crossDistance
         // A live feature nearer than the entry's best so far takes the entry over (mutual decided when its scan ends).
         val update = Cross(); update.distance := count; update.mutual := False
         update.liveX := scan.live.x; update.liveY := scan.live.y

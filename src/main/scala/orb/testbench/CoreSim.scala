@@ -133,10 +133,11 @@ object CoreSim {
     private val groups = orb.model.DescriptorSchedule.groups
     var cycles = 0L
 
-    /** breaks of the features' hold (the matcher's input contract, `Matcher`): a taken item stays, unchanged and
-      * not offered, in the clock after its take */
+    /** breaks of the features' hold (the matcher's input contract, `Matcher`): an offered item stays, unchanged,
+      * until it is taken and in the clock after its take, not offered in that clock */
     val holdBreaks = ArrayBuffer[String]()
-    private var taken: Option[(Long, Seq[BigInt])] = None
+    // the last clock's offered item: its clock, whether it was taken, its fields
+    private var offered: Option[(Long, Boolean, Seq[BigInt])] = None
     private def fields(d: Data): Seq[BigInt] = d.flatten.map {
       case b: Bool => BigInt(if (b.toBoolean) 1 else 0)
       case v: BitVector => v.toBigInt
@@ -170,13 +171,15 @@ object CoreSim {
         cornerClocks += cycles
       }
       val f = dut.io.features
-      taken.foreach { case (clock, payload) =>
-        if (f.valid.toBoolean || fields(f.payload) != payload)
-          holdBreaks += s"clock $clock: the taken feature is not held, unoffered, in the clock after"
+      offered.foreach { case (clock, taken, payload) =>
+        if (f.valid.toBoolean == taken || fields(f.payload) != payload)
+          holdBreaks += (
+            if (taken) s"clock $clock: a taken item is not held, unoffered, in the clock after"
+            else s"clock $clock: an offered item changed or was withdrawn before its take"
+          )
       }
-      taken = None
+      offered = if (f.valid.toBoolean) Some((cycles, f.ready.toBoolean, fields(f.payload))) else None
       if (f.valid.toBoolean && f.ready.toBoolean) {
-        taken = Some((cycles, fields(f.payload)))
         if (f.end.now.toBoolean) featureStream += Left(FrameEnd(f.end.info.ok.toBoolean, f.end.info.keyframe.toBoolean))
         else {
           val bits = f.descriptor.toBigInt
