@@ -101,6 +101,15 @@ object ResourceCount {
   def parseAlone(text: String): Map[String, Long] =
     text.linesIterator.map(_.trim.split(" ")).collect { case Array(m, n) if n.forall(_.isDigit) => m -> n.toLong }.toMap
 
+  /** runs of Yosys when its ABC aborts (see `abcAborted`) */
+  val abcAttempts: Int = 3
+
+  /** Yosys's log says that ABC aborted on an assertion (Debian's ABC has one in `lutpack` that depends on memory
+    * addresses, so another run of the same netlist passes), not that the flow itself failed. */
+  def abcAborted(log: String): Boolean =
+    log.linesIterator.exists(l => l.startsWith("ABC:") && l.contains("Assertion")) &&
+      log.contains("ERROR: ABC: execution of command")
+
   /** Yosys' `stat` text and the flip-flops alone per module. */
   def runYosys(dir: File, verilog: File, top: String): (String, Map[String, Long]) = {
     val work = new File(dir, "yosys"); work.mkdirs()
@@ -114,12 +123,21 @@ object ResourceCount {
       Report.write(new File(work, f), text)
     }
     val log = new File(work, "yosys.log")
-    val status =
+    def run(): Int =
       try Process(Seq("yosys", "-q", "-l", log.getName, "-s", "flow.ys"), work).!(ProcessLogger(_ => ()))
       catch {
         case _: java.io.IOException =>
           throw new RuntimeException("yosys is not on the PATH (Debian: apt-get install yosys)")
       }
+    def logText: String = if (log.isFile) scala.io.Source.fromFile(log).mkString else ""
+    // ABC's assertion in `lutpack` tests a pointer's bits, so it fails now and then on the same netlist: run again
+    var status = run()
+    var attempt = 1
+    while (status != 0 && abcAborted(logText) && attempt < abcAttempts) {
+      println(s"orb.Report: Yosys's ABC aborted (an assertion that depends on memory addresses); running it again")
+      status = run()
+      attempt += 1
+    }
     if (status != 0) throw new RuntimeException(s"yosys failed (status $status); see ${log.getPath}")
     val alone = new StringBuilder
     val s2 = Process(Seq("python3", "netlist.py", "les", "generic.json"), work).!(ProcessLogger(

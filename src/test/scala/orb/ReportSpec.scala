@@ -88,6 +88,20 @@ class ReportSpec extends AnyFunSuite {
     assert(alone(r.toplevelName) == 10, alone)
   }
 
+  test("ABC's address-dependent assertion (run Yosys again) is told from any other failure of the resource count") {
+    val aborted = Seq(
+      "ABC: + lutpack -S 1 ",
+      "ABC: berkeley-abc: src/opt/lpk/lpkCut.c:200: Lpk_CutTruth: Assertion " +
+        "`((unsigned)(ABC_PTRUINT_T)pFanin->pCopy) & 0xffff0000' failed.",
+      "ABC: Aborted",
+      "ERROR: ABC: execution of command \"berkeley-abc\" -s -f /tmp/yosys-abc-dvnfeJ/abc.script 2>&1\" failed: " +
+        "return code 134."
+    ).mkString("\n")
+    assert(ResourceCount.abcAborted(aborted))
+    assert(!ResourceCount.abcAborted("ERROR: Module `\\Foo' referenced in module `\\Top' is not part of the design."))
+    assert(!ResourceCount.abcAborted("ABC: + lutpack -S 1\nEnd of script."), "a run that ended")
+  }
+
   test("a seed whose reset arc to its global buffer does not route is told from any other failure") {
     val work = new File("target/report-test/reset-arc")
     work.mkdirs()
