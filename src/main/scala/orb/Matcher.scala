@@ -88,6 +88,13 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
     params.ratio init m.defaultRatio
     params.ratioTest init Bool(m.defaultRatioTest)
     params.crossCheck init Bool(m.defaultCrossCheck)
+    when(item.fire) {
+      first := item.end.now
+      when(first) {
+        key := isKey
+        params := io.params
+      }
+    }
   }
 
   // The offered item's kind, registered while it waits: an item is taken no earlier than the clock after it is first
@@ -101,17 +108,9 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
     val liveFeature = RegNext(!keyNow && !item.end.now)
     val keyEnd = RegNext(keyNow && item.end.now)
     val liveEnd = RegNext(!keyNow && item.end.now)
-    val end = RegNext(item.end.now)
 
     /** the keyframe's first item: it empties the store */
     val emptiesStore = RegNext(frame.first && isKey)
-  }
-  when(item.fire) {
-    frame.first := kind.end
-    when(frame.first) {
-      frame.key := isKey
-      frame.params := io.params
-    }
   }
 
   /** What the matcher is doing, one thing at a time: an item is taken only when it is idle (and a rescan's start or
