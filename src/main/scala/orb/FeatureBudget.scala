@@ -94,6 +94,13 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
     fromSteps := 0
     for ((from, n) <- cfg.perCellSteps) when(width >= from) { fromSteps := n }
     val now = RegNext(fromSteps) init 0
+
+    /** `now` once more, a copy (kept apart) per `FeatureBudget.listsPerCount` lists: the lists lie across the block,
+      * and the count changes only at a frame's start (the tracker's geometry), 22 rows before its first corner */
+    def copyFor(list: Int): UInt = copies(list / FeatureBudget.listsPerCount)
+    val copies = (0 until (2 * cells + FeatureBudget.listsPerCount - 1) / FeatureBudget.listsPerCount).map { _ =>
+      keptApart(RegNext(now) init 0)
+    }
   }
 
   /** Every list in arrival order (raster order within its cell), the newest at place 0 and the place that leaves
@@ -187,7 +194,7 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
 
         /** the list places in use in this line length (it changes only between frames), registers of the list's
           * own (kept apart: one register would reach every list), from the registered count per cell */
-        val inUse = (0 until k).map(i => keptApart(RegNext(U(i) < perCell.now) init False))
+        val inUse = (0 until k).map(i => keptApart(RegNext(U(i) < perCell.copyFor(l)) init False))
 
         /** the corner lined up ranked above each place as the list is then (registers) */
         val aboveStaying = RegNext(Vec((0 until k).map(i => lined.ranks(l) > list(i).rank)))
@@ -539,11 +546,11 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
     // the level of `levelFracBits` (`BudgetModel.level`) is the rank of `rankFracBits` without its last bits
     val levelNext = Arith.floorShift(RegNext(RegNext(emission.outRank)), b.rankFracBits - b.levelFracBits)
     val level = RegNext(levelNext).resize(levelWidth)
-    // the level against the cut registered with the level, from the next values of both: the same comparisons as
-    // of the registers, a clock ahead (no comparison between the level and the decision)
-    val cutLevelNext = cut.level.getAheadValue()
-    val aboveCut = RegNext(levelNext.resize(levelWidth) > cutLevelNext) init False
-    val atCutLevel = RegNext(levelNext.resize(levelWidth) === cutLevelNext) init False
+    // the level against the cut registered with the level (no comparison between the level and the decision), the
+    // cut from its register: it changes only in a frame end's walk, which ends long before the next frame's first
+    // winner (its corners come 22 rows into it), so no walk's logic before the comparison
+    val aboveCut = RegNext(levelNext.resize(levelWidth) > cut.level) init False
+    val atCutLevel = RegNext(levelNext.resize(levelWidth) === cut.level) init False
     val target = io.target
     val room = RegNext(cut.taken < target) init False
     val roomAtCut = RegNext(cut.atCut < cut.remainder) init False
@@ -610,6 +617,7 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
     val phase = RegInit(Phase.scan)
     val good = Reg(Bool()) init False
     val issue = Reg(UInt(levelWidth bits)) init levels - 1
+    val bottom = Reg(Bool()) init Bool(levels == 1)
     val need = Reg(UInt(BudgetConfig.targetWidth + 1 bits)) init 0
     val found = Reg(Bool()) init False
     // the winners left in the banks when the frame end fires, counted in three registered steps (a list's count,
@@ -633,15 +641,24 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
       phase := Phase.scan
       good := pendingOk
       issue := levels - 1
+      bottom := Bool(levels == 1)
+    }
+    // the walk's count of what it still needs, reset by a copy of the firing of its own (it lies beside the count)
+    val needFiring = new Firing
+    when(needFiring.fire) {
       need := io.target.resize(need.getWidth)
       found := False
     }
-    // a level's count arrives two clocks after its read
-    val reading = phase === Phase.scan && !RegNext(phase === Phase.scan && issue === 0, init = False)
+    // a level's count arrives two clocks after its read; whether the lowest level is issued (`bottom`: `issue` is
+    // 0) kept in a register, decided a clock ahead (no comparison of `issue` before its own enable)
+    val reading = phase === Phase.scan && !RegNext(phase === Phase.scan && bottom, init = False)
     val readLevel = issue
     val arrives = Delay(reading, 2, init = False)
     val arrivedLevel = Delay(readLevel, 2)
-    when(phase === Phase.scan && issue =/= 0) { issue := issue - 1 }
+    when(phase === Phase.scan && !bottom) {
+      issue := issue - 1
+      bottom := issue === 1
+    }
     // The count is registered once more beside the walk's decisions (the RAM lies apart), its level and arrival with
     // it. The target less the winners above the level being decided, while the cut is not found (then it is > 0):
     // the level holds the cut when its count reaches it, with no adder before that comparison.
@@ -736,6 +753,9 @@ object FeatureBudget {
     * first winner's step, a pace per winner and one for the empty choice that ends it, a clock to see it. */
   def emissionClocks(winners: Long, places: Int): Long =
     3 + settleClocks(places) + 1 + choiceDepth + winners * winnerClocks + 1
+
+  /** lists served by one copy of the corners kept per cell */
+  val listsPerCount: Int = 8
 
   /** cells of a bank emptied by one copy of the frame end's firing */
   val cellsPerFiring: Int = 8

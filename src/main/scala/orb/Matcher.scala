@@ -33,7 +33,8 @@ import orb.Pipes.keptApart
   * The input's contract (the descriptor unit's output register keeps it): an offered item stays, unchanged, until it
   * is taken and in the clock after its take, and no item is offered in that clock. The matcher reads the taken
   * feature there (a replacement writes it a clock after its take) and has no input register of its own; it takes an
-  * item the clock after it is first offered at the earliest (its kind registered by then). */
+  * item the clock after it is first offered at the earliest (its kind registered by then), deciding the take from its
+  * own registers (an item offered and not taken is offered in the next clock: the sender's valid is not read then). */
 class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: MatcherConfig) extends Component {
   import MatcherConfig.{crossLatency, decideLatency, distanceWidth, none, pushLatency, readLatency}
   val io = new Bundle {
@@ -73,11 +74,13 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
   def clearedCross: Cross = { val c = Cross(); c.distance := none; c.mutual := False; c.liveX := 0; c.liveY := 0; c }
 
   // The input port itself, no register of its own: the contract (above) keeps a taken item a clock after its take,
-  // where the load and the scan's copies read it; its valid is the sender's register, its ready two registers'
-  // AND (`ready` and `seen`, below), so the load and the scan decide on local copies enabled by registers, not by
-  // the handshake.
+  // where the load and the scan's copies read it. A take is two registers' AND (`ready` and `waiting`, below), not
+  // the sender's valid: an item offered in the last clock and not taken then is offered now (a stream's valid holds
+  // until its take), so no decision at a take waits for a wire from the other block.
   val item = io.features
   val isKey = item.keyframe
+  val waiting = Reg(Bool()) init False
+  val take = Bool()
 
   // Frame state: the first item of a frame samples the parameters and, on a keyframe, empties the store.
   val frame = new Area {
@@ -88,7 +91,7 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
     params.ratio init m.defaultRatio
     params.ratioTest init Bool(m.defaultRatioTest)
     params.crossCheck init Bool(m.defaultCrossCheck)
-    when(item.fire) {
+    when(take) {
       first := item.end.now
       when(first) {
         key := isKey
@@ -98,10 +101,9 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
   }
 
   // The offered item's kind, registered while it waits: an item is taken no earlier than the clock after it is first
-  // offered (`seen`), so each decision at a take is one LUT of registers (the handshake's and the kind's), not the
+  // offered (`waiting`), so each decision at a take is one LUT of registers (the handshake's and the kind's), not the
   // frame state and the item's flags through two levels. The frame state is up to date as an item is first offered
   // (it changes as an item is taken, and none is offered in the clock after a take: the input's contract).
-  val seen = RegNext(item.valid) init False
   val kind = new Area {
     val keyNow = Mux(frame.first, isKey, frame.key)
     val keyFeature = RegNext(keyNow && !item.end.now)
@@ -173,7 +175,7 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
   // the weakest replaces it, after which a rescan of the scores finds the new weakest. Every feature beyond the
   // capacity, kept or not, costs one: counted as overflow.
   val load = new Area {
-    val keyFeature = item.fire && kind.keyFeature
+    val keyFeature = take && kind.keyFeature
     // the store's count tested in registers a clock late: it changes only as a keyframe feature is taken, and items
     // are at least two clocks apart (the input's contract), so the next one meets the tests of the count it left
     val emptied = kind.emptiesStore
@@ -211,7 +213,7 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
     /** a write (an append or a replacement) for lane `l`: the two never come in the same clock */
     def writes(l: Int): Bool = (append && Mux(emptied, Bool(l == 0), storedLanes(l))) || (replace && weakestLanes(l))
     val overflow = meetsFull
-    when(item.fire && kind.emptiesStore) { stored := 0 }
+    when(take && kind.emptiesStore) { stored := 0 }
     when(append) {
       stored := Mux(kind.emptiesStore, U(1, countWidth bits), storedPlusOne)
     }
@@ -262,7 +264,7 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
       issuing := !lastGroup
       lastGroup := group === groupsCompared.lessTwo
     }
-    val start = item.fire && kind.liveFeature
+    val start = take && kind.liveFeature
     when(start) {
       activity := Activity.SCAN
       group := 0
@@ -323,7 +325,7 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
     when(busy && !more) {
       activity := Activity.IDLE
     }
-    when(item.fire && kind.liveEnd) {
+    when(take && kind.liveEnd) {
       activity := Activity.SWEEP
       entry := 0
       following := 1
@@ -356,7 +358,7 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
     when(busy && atLast) {
       activity := Activity.IDLE
     }
-    when(item.fire && kind.keyEnd) {
+    when(take && kind.keyEnd) {
       activity := Activity.KEY_END
       group := 0
       atLast := Bool(m.groups == 1)
@@ -725,6 +727,9 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
     // the score word a clock later than the entry, its decision registered before the selection below (the rescan
     // that reads it starts later still)
     val scoreHere = keptApart(RegNext(loadHere) init False)
+    // a copy of it for the data (kept apart): one register would select the address, the enable and the 32 bits of
+    // data, which lie beside the lane's RAM, far from the load's decision
+    val scoreHereData = keptApart(RegNext(loadHere) init False)
     val scoreAddr = RegNext(load.addr)
     val scoreWord = Cross()
     scoreWord.assignFromBits(RegNext(item.score).asBits.resize(scoreWord.getBitsWidth))
@@ -743,7 +748,7 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
     )
     val data =
       Mux(
-        scoreHere,
+        scoreHereData,
         scoreWord,
         Mux(clearHere || keyEnd.clears(l), clearedCross, Mux(markHere, decide.markValue, c.update))
       )
@@ -753,15 +758,17 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
 
   // Ready for the next item when nothing is busy: a register, computed from the next values of the flags it depends
   // on (the FIFO's room from its register: see `paced`), so no decision hangs on the handshake or the FIFO's
-  // pointers and nothing waits for the readiness's own logic; and only for an item offered since the last clock
-  // (`seen`, whose kind is registered by then).
+  // pointers and nothing waits for the readiness's own logic; and only for an item offered in the last clock and not
+  // taken then (`waiting`: offered now, its kind registered by then).
   // A keyframe feature that meets a full store holds the next item two clocks, whether it replaces (the rescan
   // starts then) or not: no score comparison in the readiness's logic.
   val readyNext =
     activity.getAheadValue() === Activity.IDLE && !sweep.drainingNext && !load.meetsFull &&
       !load.metFull && (paced.roomForItem || paced.giveUp.getAheadValue())
   val ready = RegNext(readyNext) init True
-  item.ready := ready && seen
+  take := ready && waiting
+  item.ready := take
+  waiting := item.valid && !take
 
   // The correspondence registered on its way into the FIFO (the lanes' RAMs are far from it): a scan's is pushed a
   // clock after its decision, the sweep's `pushLatency` clocks after its read.
