@@ -1293,7 +1293,7 @@ object DescriptorUnit {
   val handOnClocks: Int = 3
 
   /** copies of the front end's `advance`, each enabling a share of its registers */
-  val advanceCopies: Int = 16
+  val advanceCopies: Int = 24
 
   /** copies of `advance` served by one copy of a slot's abandonment */
   val advanceCopiesPerAbandon: Int = 4

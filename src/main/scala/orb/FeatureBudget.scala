@@ -38,6 +38,15 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
   val cells = b.cellsPerRow(f.maxWidth)
   val k = b.perCell
   val levels = b.levels(h.scoreWidth)
+  // The cut is compared from its register (`decide`) and the walk shares the histogram's ports with the winners: a
+  // frame end's walk (a clock per level, a few more around it) ends before the next frame's first winner. The end
+  // fires at the latest as the last band's emission ends (within a band's rows), and a frame's first `border` rows
+  // have no corner, even in the narrowest lines that keep any.
+  private val walkClocks = levels + 8
+  require(
+    cfg.perCellSteps.headOption.forall { case (w, _) => walkClocks < (h.border - b.cellHeight).toLong * w },
+    "the frame end's walk would not end before the next frame's first winner"
+  )
   val levelWidth = b.levelWidth(h.scoreWidth)
   val rankWidth = b.rankWidth(h.scoreWidth)
   val maxWinners = k * cells * ((f.maxHeight + b.cellHeight - 1) / b.cellHeight)

@@ -207,11 +207,20 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
     // a take's clock begins, and a replacement is decided a clock after its take; so no index is chosen and
     // compared on the way to a lane's enable.
     val laneBits = log2Up(P) max 1
-    val storedLanes = Vec((0 until P).map(l => RegNext(laneIs(stored.resize(laneBits), l)) init Bool(l == 0)))
     val weakestLanes = Vec((0 until P).map(l => RegNext(laneIs(weakest.index.resize(laneBits), l)) init Bool(l == 0)))
 
+    // Whether the item offered now would be appended to lane `l` if taken (`append` without the take, and the lane
+    // the count names): a register per lane from the next values of the kind and of the count's tests, the same
+    // values a clock ahead, so a lane's enable is the take and one register (or the replacement's registers)
+    val appendLanes = Vec((0 until P).map { l =>
+      val emptiesNext = kind.emptiesStore.getAheadValue()
+      val roomNext = emptiesNext || !(stored === m.storeCapacity)
+      val laneNext = Mux(emptiesNext, Bool(l == 0), laneIs(stored.resize(laneBits), l))
+      RegNext(kind.keyFeature.getAheadValue() && roomNext && laneNext) init False
+    })
+
     /** a write (an append or a replacement) for lane `l`: the two never come in the same clock */
-    def writes(l: Int): Bool = (append && Mux(emptied, Bool(l == 0), storedLanes(l))) || (replace && weakestLanes(l))
+    def writes(l: Int): Bool = (take && appendLanes(l)) || (replace && weakestLanes(l))
     val overflow = meetsFull
     when(take && kind.emptiesStore) { stored := 0 }
     when(append) {

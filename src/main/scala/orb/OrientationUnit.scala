@@ -177,8 +177,9 @@ class OrientationUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, c
     val at = RegNext(position === last) init False
 
     /** the head is the one the comparisons were made with, and the stream has reached its last column (or gone
-      * past it): the pop needs no comparison of its own, so the queue's enables follow two registers */
-    val reached = position >= last
+      * past it): the pop needs no comparison of its own, so the queue's enables follow two registers. The row and
+      * the column compared side by side (two short carry chains, not one through both) */
+    val reached = Arith.combineParts(Arith.comparedInParts(position, last, orEqual = true, parts = 2))
     val due = RegNext(head.valid && !head.ready && reached) init False
   }
   // When `sums` shows the head's last column: the chains add it a clock later (at the beat) and hold the head's
