@@ -212,11 +212,11 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
     // Whether the item offered now would be appended to lane `l` if taken (`append` without the take, and the lane
     // the count names): a register per lane from the next values of the kind and of the count's tests, the same
     // values a clock ahead, so a lane's enable is the take and one register (or the replacement's registers)
+    val emptiesNext = kind.emptiesStore.getAheadValue()
+    val appendsNext = kind.keyFeature.getAheadValue() && (emptiesNext || !(stored === m.storeCapacity))
     val appendLanes = Vec((0 until P).map { l =>
-      val emptiesNext = kind.emptiesStore.getAheadValue()
-      val roomNext = emptiesNext || !(stored === m.storeCapacity)
       val laneNext = Mux(emptiesNext, Bool(l == 0), laneIs(stored.resize(laneBits), l))
-      RegNext(kind.keyFeature.getAheadValue() && roomNext && laneNext) init False
+      RegNext(appendsNext && laneNext) init False
     })
 
     /** a write (an append or a replacement) for lane `l`: the two never come in the same clock */
