@@ -372,7 +372,7 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
     keptApart(start)
     start := starts
     refuse := current && Mux(early, over, late || !dataOk) && !decided
-    // a copy of `start` per engine slot (kept apart): each loads its slot's corner
+    // a copy of `start` per engine slot (kept apart): each turns its slot's turn flag
     val slotStarts = Seq.fill(2) {
       keptApart(RegNext(starts) init False)
     }
@@ -411,7 +411,10 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
     val done = Reg(UInt(log2Up(groups + 1) bits)) init 0
     val lastGroup = Reg(Bool()) init False
     val descriptor = Reg(Bits(OrbDescriptorConfig.descriptorBits bits))
-    val running = state === EngineState.RUN
+
+    /** `state` is RUN, in a register of its own whose next value no release reaches (a release frees a finished or
+      * an abandoned slot, never a running one), so the output's readiness does not reach `atRisk` */
+    val runs = RegInit(False)
 
     /** the next corner to start takes this slot, and this slot's feature leaves next: the slots take turns, each
       * with its own flags (kept apart), so no one tag drives both slots' registers */
@@ -448,6 +451,7 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
 
     def begin(c: PreparedCorner, b: UInt, left: UInt): Unit = {
       state := EngineState.RUN
+      runs := True
       corner := c.item
       base := b
       rowsLeft := left
@@ -472,6 +476,7 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
         lastGroup := done === groups - 2
         when(lastGroup && !abandon) {
           state := EngineState.FINISHED
+          runs := False
         }
       }
     }
@@ -481,16 +486,17 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
       state := EngineState.IDLE
     }
 
-    when(rowStart && running) {
+    when(rowStart && runs) {
       rowsLeft := rowsLeft - 1
     }
     when(abandon) {
       state := EngineState.ABANDONED
+      runs := False
     }
     // from the next values of what it tests
     val rowsLeftNext = rowsLeft.getAheadValue()
     atRisk := RegNext(
-      state.getAheadValue() === EngineState.RUN && !abandonNext &&
+      runs.getAheadValue() && !abandonNext &&
         Mux(rowStart.getAheadValue(), rowsLeftNext === 2, rowsLeftNext === 1)
     ) init False
   }
@@ -518,7 +524,8 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
     val leftLast = RegInit(False)
 
     /** A corner starts when `start` (`starts` a clock ahead) with `left` rows left (`oneLeft`: one, with `starts`);
-      * `slotStarts` are copies of it (kept apart), one per slot, each loading that slot's registers. */
+      * `slotStarts` are copies of it (kept apart), one per slot, each turning that slot's turn flag (the slot's
+      * registers load by a register of their own, `starts` in the slot's turn). */
     def begin(
         c: PreparedCorner,
         b: UInt,
@@ -529,13 +536,15 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
         slotStarts: Seq[Bool]
     ): Unit = {
       for ((s, slotStart) <- slots.zip(slotStarts)) {
-        // whether the corner starts in this slot with one row left, a register of its own (the slot's turn flag
-        // does not change in the clock after a start: starts are at least two clocks apart)
+        // whether the corner starts in this slot, and with one row left, registers of its own (kept apart): the
+        // slot's turn flag does not change in the clock after a start (starts are at least two clocks apart), so
+        // no turn flag is tested on the way to the slot's state and registers
+        val beginsHere = keptApart(RegNext(starts && s.takesNext) init False)
         s.beginsOnLastRow := keptApart(RegNext(starts && s.takesNext && oneLeft) init False)
+        when(beginsHere) {
+          s.begin(c, b, left)
+        }
         when(slotStart) {
-          when(s.takesNext) {
-            s.begin(c, b, left)
-          }
           s.takesNext := !s.takesNext
         }
       }

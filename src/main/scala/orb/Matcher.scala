@@ -31,8 +31,9 @@ import orb.Pipes.keptApart
   * flowing, so later frames are still matched.
   *
   * The input's contract (the descriptor unit's output register keeps it): an offered item stays, unchanged, until it
-  * is taken and in the clock after its take, and no item is offered in that clock. The matcher reads the taken
-  * feature there (a replacement writes it a clock after its take) and has no input register of its own; it takes an
+  * is taken and in the clock after its take, its descriptor in the clock after that too, and no item is offered in
+  * those two clocks. The matcher reads the taken feature there (a replacement writes it a clock after its take, the
+  * live descriptor's copies load it up to two clocks after) and has no input register of its own; it takes an
   * item the clock after it is first offered at the earliest (its kind registered by then), deciding the take from its
   * own registers (an item offered and not taken is offered in the next clock: the sender's valid is not read then). */
 class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: MatcherConfig) extends Component {
@@ -193,9 +194,12 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
       * input's contract), and the weakest has not changed since (it changes a clock after an append, or at a
       * rescan's end, both at least a clock before a take). */
     val metFull = RegNext(meetsFull) init False
+    // The offered score copied every clock beside the comparisons: at a take it holds the taken item's (offered
+    // in the clock before, `waiting`, and unchanged since), so no comparison starts from the sender's register.
+    val offeredScore = RegNext(item.score)
     // compared in parts side by side into registers, combined after them (no carry through the whole score)
     val strongerParts =
-      RegNext(Arith.comparedInParts(item.score, weakest.score, orEqual = false, MatcherConfig.scoreParts))
+      RegNext(Arith.comparedInParts(offeredScore, weakest.score, orEqual = false, MatcherConfig.scoreParts))
     val stronger = Arith.combineParts(strongerParts)
     val replace = metFull && stronger
     // the weakest entry's place whenever a feature met the full store (no append then: items are two clocks apart),
@@ -232,7 +236,7 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
     val appended = RegNext(append) init False
     val appendedToEmpty = RegNext(storedZero)
     val weakerParts =
-      RegNext(Arith.comparedInParts(weakest.score, item.score, orEqual = false, MatcherConfig.scoreParts))
+      RegNext(Arith.comparedInParts(weakest.score, offeredScore, orEqual = false, MatcherConfig.scoreParts))
     val becomesWeakest = appended && (appendedToEmpty || Arith.combineParts(weakerParts))
     val appendedScore = RegNext(item.score)
     val appendedIndex = RegNext(storedNow)
@@ -508,13 +512,17 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
     }
     // A copy of the live descriptor per `lanesPerLiveCopy` lanes (kept apart, beside their RAMs: one copy would
     // drive all the lanes' comparisons across the chip), copied while the scan is idle as `scan.live` is, in parts,
-    // each by an enable from its own copy of the idle flag (no one flag drives every bit). The flag is a clock late
-    // (from the activity register, not its next value): in a scan's first clock the input still holds the feature
-    // that started it (the input's contract), and the first entry it meets is read clocks after that.
+    // each by an enable from its own copy of the idle flag (no one flag drives every bit), which copies the copy's
+    // flag (kept apart: no one register drives every part's). The parts' flags are two clocks late (from the
+    // activity register through the copy's flag): a scan starts the clock after its take, and the taken feature's
+    // descriptor stays in the input for two clocks after the take (the input's contract), so the last part loaded
+    // before a scan holds it; the first entry it meets is read clocks after that. Between scans the parts load
+    // every clock, so an appended feature's descriptor is in them in the clock after its take and the next.
     val liveCopies = (0 until (P + MatcherConfig.lanesPerLiveCopy - 1) / MatcherConfig.lanesPerLiveCopy).map { _ =>
       val partBits = item.descriptor.getWidth / MatcherConfig.liveDescriptorParts
+      val copyIdle = keptApart(RegNext(activity =/= Activity.SCAN) init True)
       val parts = (0 until MatcherConfig.liveDescriptorParts).map { i =>
-        val idle = keptApart(RegNext(activity =/= Activity.SCAN) init True)
+        val idle = keptApart(RegNext(copyIdle) init True)
         val part = keptApart(Reg(Bits(partBits bits)))
         when(idle) {
           part := item.descriptor(i * partBits, partBits bits)

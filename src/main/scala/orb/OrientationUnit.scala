@@ -65,8 +65,16 @@ class OrientationUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, c
     /** a copy of `valid` (its last register kept apart) for a consumer apart from the chains */
     def validCopy(): Bool = keptApart(RegNext(validAhead) init False)
     // the beat's pixel beside its sums, and a clock before (the head is compared with it a clock ahead)
-    val pixelAhead = delayApart(pixelFirst, latency - 2)
+    val pixelBefore = delayApart(pixelFirst, latency - 3)
+    val pixelAhead = keptApart(RegNext(pixelBefore))
     val pixel = RegNext(pixelAhead)
+
+    /** the position of `pixelAhead` in a copy of its own (kept apart) beside the head's comparisons: the register
+      * that serves the sums, the row's start and the beat lies apart from them */
+    val positionAhead = new Area {
+      val x = keptApart(RegNext(pixelBefore.x))
+      val y = keptApart(RegNext(pixelBefore.y))
+    }
     val x = pixel.x
     val y = pixel.y
     val active = pixel.active
@@ -169,8 +177,8 @@ class OrientationUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, c
   // head loaded in the last clock has no comparisons of its own yet and waits a clock: its last column is at least
   // two pixels after the head before it (the 3x3 suppression), and corners reach the queue rows before it.
   val ahead = new Area {
-    val x = sums.pixelAhead.x
-    val y = sums.pixelAhead.y
+    val x = sums.positionAhead.x
+    val y = sums.positionAhead.y
     // the position as one number, row above column (x < 2^cw): "reached" is one comparison, one carry chain
     val position = y @@ x
     val last = head.lastY @@ head.lastX

@@ -109,9 +109,9 @@ class MatcherSpec extends AnyFunSuite {
         }
         dut.clockDomain.waitSamplingWhere(in.ready.toBoolean)
         // the input's contract (the descriptor unit's output register keeps it): the taken item stays, unoffered,
-        // for the clock after its take
+        // for the clock after its take, and its descriptor, unoffered, for the clock after that
         in.valid #= false
-        dut.clockDomain.waitSampling()
+        dut.clockDomain.waitSampling(2)
       }
       // Drain: until every correspondence counted by the matcher has arrived and nothing has been pushed or taken
       // for longer than a scan, a sweep of the store and a full FIFO's pushes in flight take (a bound, so that a lost
@@ -131,10 +131,10 @@ class MatcherSpec extends AnyFunSuite {
       }
       out = RtlMatches(got.toSeq, s.stored.toLong, s.storeOverflow.toLong, s.matches.toLong, s.matchDrops.toLong)
       if (ready >= 1 && stallFor == 0) {
-        // item k was waiting when item k - 1 was taken (it is offered two clocks after a take at the earliest: the
+        // item k was waiting when item k - 1 was taken (it is offered three clocks after a take at the earliest: the
         // input's contract): the clocks between the takes are k - 1's hold
         val holds =
-          (1 until taken.size).filter(k => waiting(k) <= taken(k - 1) + 2).map(k => (k - 1, taken(k) - taken(k - 1)))
+          (1 until taken.size).filter(k => waiting(k) <= taken(k - 1) + 3).map(k => (k - 1, taken(k) - taken(k - 1)))
         val over = holds.filter { case (k, h) => h > (if (stream(k).isRight) m.clocksPerFeature else m.frameEndClocks) }
         val longest = holds.filter(h => stream(h._1).isRight).map(_._2).maxOption.getOrElse(0L)
         // a keyframe feature's hold apart (a replacement's rescan is not a scan: it has its own latency)

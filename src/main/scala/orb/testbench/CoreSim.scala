@@ -134,10 +134,14 @@ object CoreSim {
     var cycles = 0L
 
     /** breaks of the features' hold (the matcher's input contract, `Matcher`): an offered item stays, unchanged,
-      * until it is taken and in the clock after its take, not offered in that clock */
+      * until it is taken and in the clock after its take, its descriptor in the clock after that too, not offered
+      * in those two clocks */
     val holdBreaks = ArrayBuffer[String]()
     // the last clock's offered item: its clock, whether it was taken, its fields
     private var offered: Option[(Long, Boolean, Seq[BigInt])] = None
+    // the descriptor of the item taken two clocks ago, with the clock of its take
+    private var takenBefore: Option[(Long, BigInt)] = None
+    private var takenLast: Option[(Long, BigInt)] = None
     private def fields(d: Data): Seq[BigInt] = d.flatten.map {
       case b: Bool => BigInt(if (b.toBoolean) 1 else 0)
       case v: BitVector => v.toBigInt
@@ -178,6 +182,12 @@ object CoreSim {
             else s"clock $clock: an offered item changed or was withdrawn before its take"
           )
       }
+      takenBefore.foreach { case (clock, descriptor) =>
+        if (f.valid.toBoolean || f.descriptor.toBigInt != descriptor)
+          holdBreaks += s"clock $clock: a taken item's descriptor is not held, unoffered, two clocks after"
+      }
+      takenBefore = takenLast
+      takenLast = if (f.valid.toBoolean && f.ready.toBoolean) Some((cycles, f.descriptor.toBigInt)) else None
       offered = if (f.valid.toBoolean) Some((cycles, f.ready.toBoolean, fields(f.payload))) else None
       if (f.valid.toBoolean && f.ready.toBoolean) {
         if (f.end.now.toBoolean) featureStream += Left(FrameEnd(f.end.info.ok.toBoolean, f.end.info.keyframe.toBoolean))
