@@ -413,7 +413,8 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
     val descriptor = Reg(Bits(OrbDescriptorConfig.descriptorBits bits))
 
     /** `state` is RUN, in a register of its own whose next value no release reaches (a release frees a finished or
-      * an abandoned slot, never a running one), so the output's readiness does not reach `atRisk` */
+      * an abandoned slot, never a running one, and never in the clock the slot begins: it begins only when idle two
+      * clocks before), so the output's readiness does not reach `atRisk` */
     val runs = RegInit(False)
 
     /** the next corner to start takes this slot, and this slot's feature leaves next: the slots take turns, each
@@ -1212,8 +1213,8 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
     * stays until it runs a corner again. The output is offered once the descriptor is in (`shown`, a clock after
     * `full`): a feature reaches the matcher `DescriptorUnit.handOnClocks` after it leaves the engine at the
     * earliest, one per three clocks, where they come at most one per descriptor. A taken item's fields load again
-    * no earlier than a clock after the take (its descriptor two), and nothing is offered in that clock: the
-    * matcher's input contract, which lets it read the taken feature there instead of copying it into a register. */
+    * no earlier than a clock after the take (its descriptor two), and nothing is offered in those two clocks: the
+    * matcher's input contract (`Matcher`), which lets it read the taken feature there instead of copying it. */
   val leaving = new Area {
     val full = RegInit(False)
     val shown = RegInit(False)

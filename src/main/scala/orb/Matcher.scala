@@ -74,10 +74,10 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
   )
   def clearedCross: Cross = { val c = Cross(); c.distance := none; c.mutual := False; c.liveX := 0; c.liveY := 0; c }
 
-  // The input port itself, no register of its own: the contract (above) keeps a taken item a clock after its take,
-  // where the load and the scan's copies read it. A take is two registers' AND (`ready` and `waiting`, below), not
-  // the sender's valid: an item offered in the last clock and not taken then is offered now (a stream's valid holds
-  // until its take), so no decision at a take waits for a wire from the other block.
+  // The input port itself, no register of its own: the contract (above) keeps a taken item a clock after its take (its
+  // descriptor two), where the load and the scan's copies read it. A take is two registers' AND (`ready` and `waiting`,
+  // below), not the sender's valid: an item offered in the last clock and not taken then is offered now (a stream's
+  // valid holds until its take), so no decision at a take waits for a wire from the other block.
   val item = io.features
   val isKey = item.keyframe
   val waiting = Reg(Bool()) init False
@@ -230,7 +230,7 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
     when(append) {
       stored := Mux(kind.emptiesStore, U(1, countWidth bits), storedPlusOne)
     }
-    // an appended feature that becomes the weakest: compared as it is taken (`item.score < weakest.score`, in parts
+    // an appended feature that becomes the weakest: compared as it is taken (its score below the weakest's, in parts
     // into registers, as `strongerParts`), decided and written a clock later (the next item is taken two clocks
     // after at the earliest: the input's contract), so no carry chain or handshake drives the weakest entry's enables
     val appended = RegNext(append) init False
@@ -516,8 +516,11 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
     // flag (kept apart: no one register drives every part's). The parts' flags are two clocks late (from the
     // activity register through the copy's flag): a scan starts the clock after its take, and the taken feature's
     // descriptor stays in the input for two clocks after the take (the input's contract), so the last part loaded
-    // before a scan holds it; the first entry it meets is read clocks after that. Between scans the parts load
-    // every clock, so an appended feature's descriptor is in them in the clock after its take and the next.
+    // before a scan holds it; the first entry it meets is read `readLatency` clocks after the scan starts (at least
+    // two: the parts are settled by then). From two clocks after a scan until the next the parts load every clock,
+    // so a keyframe feature's descriptor is in them in the clock after its take (an append's write) and the next (a
+    // replacement's): a keyframe feature is taken at least three clocks after a live frame's end item.
+    require(readLatency >= 2, "the live descriptor's copies settle two clocks after a scan's take")
     val liveCopies = (0 until (P + MatcherConfig.lanesPerLiveCopy - 1) / MatcherConfig.lanesPerLiveCopy).map { _ =>
       val partBits = item.descriptor.getWidth / MatcherConfig.liveDescriptorParts
       val copyIdle = keptApart(RegNext(activity =/= Activity.SCAN) init True)

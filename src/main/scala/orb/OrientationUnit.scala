@@ -64,7 +64,8 @@ class OrientationUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, c
 
     /** a copy of `valid` (its last register kept apart) for a consumer apart from the chains */
     def validCopy(): Bool = keptApart(RegNext(validAhead) init False)
-    // the beat's pixel beside its sums, and a clock before (the head is compared with it a clock ahead)
+    // the beat's pixel beside its sums, and a clock before (`pixelAhead`; the head is compared a clock ahead with
+    // its position's copy, `positionAhead`)
     val pixelBefore = delayApart(pixelFirst, latency - 3)
     val pixelAhead = keptApart(RegNext(pixelBefore))
     val pixel = RegNext(pixelAhead)
