@@ -592,7 +592,7 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
 
     /** enables of registers that lie apart from the registers made before and after them, by site: a copy of
       * `advance` per site (`issue.advanceCopy`), which lies there. A point's registers beside its multipliers
-      * through several stages, a slice's of the pattern beside its table (`stepAt`); the fetch's count, the
+      * through several stages, a table part's of a pattern slice beside that part (`stepAt`); the fetch's count, the
       * pattern's parts and pick, the rotation's first steps beside the dispatch each a site of its own
       * (`stepApart`). */
     private val siteEnables =
@@ -730,11 +730,15 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
             sliceWidth,
             DescriptorUnit.tableParts
           )
-          def countCopy(): UInt = keptApart(stepAt(s"slice$sl")(fetch.group.resize(log2Up(groups))))
-          val indexCopies = (0 until DescriptorUnit.tableParts).map(_ => countCopy())
-          val words = Vec(table.wordsEach(indexCopies).map(stepAt(s"slice$sl")(_)))
-          // the part, a copy per point's coordinate (kept apart), from one count copy
-          val partCount = countCopy()
+          // each table part's index copy and word a site of their own (a copy of `advance` each: one slice's
+          // words are hundreds of registers)
+          def site(q: Int): String = s"slice${sl}part$q"
+          val indexCopies = (0 until DescriptorUnit.tableParts).map { q =>
+            keptApart(stepAt(site(q))(fetch.group.resize(log2Up(groups))))
+          }
+          val words = Vec(table.wordsEach(indexCopies).zipWithIndex.map { case (w, q) => stepAt(site(q))(w) })
+          // the part, a copy per point's coordinate (kept apart), from a count copy of its own
+          val partCount = keptApart(stepApart(fetch.group.resize(log2Up(groups))))
           val parts = Seq.fill(sliceWidth / fieldWidth)(keptApart(stepApart(table.part(partCount))))
         }
       }

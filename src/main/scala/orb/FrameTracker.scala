@@ -7,10 +7,14 @@ import orb.Pipes.keptApart
 /** Positions every pixel, learns the frame geometry and polices it; see `orb.model.FrameTrackerModel` for the
   * rules (the model is the specification, this is a register-for-register mirror). The pixel beat is registered on
   * the way in, so the checks start from flip-flops, not from the camera's pins. Latency: `FrameTracker.latency`. */
-class FrameTracker(c: FrameConfig) extends Component {
+class FrameTracker(c: FrameConfig, xCopies: Int = 0) extends Component {
   val io = new Bundle {
     val pixels = slave Flow (PixelBeat())
     val tracked = master Flow (TrackedPixel(c))
+
+    /** `xCopies` copies of the tracked pixel's x (registers kept apart), for readers that lie apart (the line
+      * buffer's RAMs: `LineBuffer.readCopies`) */
+    val xCopies = out Vec (c.coord(), FrameTracker.this.xCopies)
 
     /** expected geometry of the frame being processed */
     val geometry = out(FrameGeometry(c))
@@ -340,6 +344,7 @@ class FrameTracker(c: FrameConfig) extends Component {
   val t = io.tracked.payload
   t.luma := RegNext(b.luma)
   t.x := RegNext(Mux(opens, U(0, cw bits), x))
+  for (copy <- io.xCopies) copy := keptApart(RegNext(Mux(opens, U(0, cw bits), x)))
   t.y := RegNext(Mux(opens, U(0, cw bits), y))
   t.active := RegNext(Mux(opens, opening.l && !opening.fault, active && !running.fault)) init False
   t.keyframe := RegNext(Mux(opens, b.keyframe, key))

@@ -25,7 +25,7 @@ class OrbCore(val cfg: OrbConfig = OrbConfig.default) extends Component {
     val frameEnds = master Flow (FrameEndHw())
     val status = out(CoreStatus(cfg.frame))
   }
-  val tracker = new FrameTracker(cfg.frame)
+  val tracker = new FrameTracker(cfg.frame, LineBuffer.readCopies(cfg.frame, cfg.rawRows))
   val lines = new LineBuffer(cfg.frame, cfg.rawRows)
   val harris = new HarrisDetector(cfg.frame, cfg.harris, cfg.rawRows)
   val budget = new FeatureBudget(cfg)
@@ -35,6 +35,7 @@ class OrbCore(val cfg: OrbConfig = OrbConfig.default) extends Component {
 
   tracker.io.pixels << io.pixels
   lines.io.pixels << tracker.io.tracked
+  lines.io.readX := tracker.io.xCopies
   harris.io.columns << lines.io.columns
   harris.io.geometry := tracker.io.geometry
   harris.io.control := io.cornerControl

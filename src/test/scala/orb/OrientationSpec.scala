@@ -17,12 +17,13 @@ class OrientationHarness(c: OrbConfig, budgeted: Boolean = true) extends Compone
     val oriented = master Flow (OrientedCorner(c.frame, c.harris))
     val dropped = out UInt (32 bits)
   }
-  val tracker = new FrameTracker(c.frame)
+  val tracker = new FrameTracker(c.frame, LineBuffer.readCopies(c.frame, rows))
   val lines = new LineBuffer(c.frame, rows)
   val harris = new HarrisDetector(c.frame, c.harris, rows)
   val orientation = new OrientationUnit(c.frame, c.harris, c.descriptor, rows)
   tracker.io.pixels << io.pixels
   lines.io.pixels << tracker.io.tracked
+  lines.io.readX := tracker.io.xCopies
   harris.io.columns << lines.io.columns
   harris.io.geometry := tracker.io.geometry
   harris.io.control := io.control

@@ -13,11 +13,12 @@ class SmootherHarness(f: FrameConfig) extends Component {
     val pixels = slave Flow (PixelBeat())
     val smoothed = master Flow (SmoothedPixel(f))
   }
-  val tracker = new FrameTracker(f)
+  val tracker = new FrameTracker(f, LineBuffer.readCopies(f, 7))
   val lines = new LineBuffer(f, 7)
   val smoother = new Smoother(f, 7)
   tracker.io.pixels << io.pixels
   lines.io.pixels << tracker.io.tracked
+  lines.io.readX := tracker.io.xCopies
   smoother.io.columns << lines.io.columns
   io.smoothed << smoother.io.smoothed
 }
