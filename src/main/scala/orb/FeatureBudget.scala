@@ -669,30 +669,31 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
       bottom := issue === 1
     }
     // The count is registered once more beside the walk's decisions (the RAM lies apart), its level and arrival with
-    // it. The target less the winners above the level being decided, while the cut is not found (then it is > 0):
-    // the level holds the cut when its count reaches it, with no adder before that comparison.
+    // it. `need` is the target less the winners above the level being decided (until the cut is found, when it is
+    // > 0; after that nothing reads it): the level holds the cut when its count reaches it, with no adder before that
+    // comparison, and the comparison is registered (`reaches`) before the first level that reaches goes into the cut
+    // and sets `found`: no carry chain before a decision, no decision before an adder.
     val count = RegNext(histogram.data)
     val decided = RegNext(arrives) init False
     val decidedLevel = RegNext(arrivedLevel)
     val last = decided && decidedLevel === 0
-    val reaches = count >= need
-    // the first level that reaches it goes into the cut a clock later, from registers (`found` stops the walk now)
-    val hit = RegNext(decided && !found && good && reaches) init False
-    val hitLevel = RegNext(decidedLevel)
-    val hitNeed = RegNext(need)
-    when(decided && !found) {
-      when(good && reaches) {
-        found := True
-      }
+    val reaches = RegNext(decided && good && count >= need) init False
+    val reachedLevel = RegNext(decidedLevel)
+    val reachedNeed = RegNext(need)
+    when(decided) {
       need := need - count.resize(need.getWidth)
     }
-    when(hit) {
-      cut.level := hitLevel
-      cut.remainder := hitNeed.resize(BudgetConfig.targetWidth)
+    val hit = reaches && !found
+    when(reaches) {
+      found := True
     }
-    // a clock after the last level's count arrived: by then `found` holds its comparison too (no comparison waits
+    when(hit) {
+      cut.level := reachedLevel
+      cut.remainder := reachedNeed.resize(BudgetConfig.targetWidth)
+    }
+    // two clocks after the last level's count arrived: by then `found` holds its comparison too (no comparison waits
     // for the RAM's data here)
-    val done = RegNext(last) init False
+    val done = RegNext(RegNext(last) init False) init False
     when(done) {
       phase := Phase.run
       cut.taken := 0
