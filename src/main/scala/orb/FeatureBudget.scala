@@ -608,22 +608,26 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
     // register, a band's trigger) tested beside it: no path from another block or through the trigger's logic
     val quiets = !intake.busy && !emission.busy && !emission.trigger && !decide.inFlight
 
-    /** The frame end fires: its own copies (kept apart) of `pending`, of the quiet test and of what entered since,
-      * each copy beside what it drives (the walk's state, a share of the banks), so no one flag spans the block. */
+    // after reset the histogram RAM may hold a cut-off frame's counts: the walk empties it first
+    val phase = RegInit(Phase.scan)
+
+    /** The frame end fires: its own copies (kept apart) of `pending`, of the quiet test, of what entered since and of
+      * the walk's phase, each copy beside what it drives (the walk's state, a share of the banks), so no one flag
+      * spans the block. A frame end that comes during the last one's walk (a frame cut short right after a good one)
+      * waits for the walk's end: the good frame's cut is found whole, as the model finds it. */
     class Firing extends Area {
       val waiting = keptApart(Reg(Bool()) init False)
       val quiet = keptApart(RegNext(quiets) init False)
       val entering = keptApart(RegNext(io.corners.valid) init False)
       val triggered = keptApart(RegNext(emission.triggers) init False)
-      val fire = waiting && quiet && !entering && !triggered
+      val walking = keptApart(RegNext(phase.getAheadValue() === Phase.scan) init True)
+      val fire = waiting && quiet && !entering && !triggered && !walking
       when(ended.valid) { waiting := True }
       when(fire) { waiting := False }
     }
     val firing = new Firing
     val fire = firing.fire
     when(fire) { pending := False }
-    // after reset the histogram RAM may hold a cut-off frame's counts: the walk empties it first
-    val phase = RegInit(Phase.scan)
     val good = Reg(Bool()) init False
     val issue = Reg(UInt(levelWidth bits)) init levels - 1
     val bottom = Reg(Bool()) init Bool(levels == 1)

@@ -10,14 +10,16 @@ import spinal.core.sim._
 class FeatureBudgetSpec extends AnyFunSuite {
   import TestSupport._
 
-  /** RTL against the model over a run of frames: corners, feature stream, counters; no drop of any kind. */
+  /** RTL against the model over a run of frames: corners, feature stream, counters; no drop of any kind. The beats
+    * are the frames' unless given (`frames` then names the images for the pictures and the summary). */
   def check(
       name: String,
       frames: Seq[GrayImage],
       p: CornerParams = cornerParams,
-      blanking: Blanking = Blanking.none
+      blanking: Blanking = Blanking.none,
+      stream: Seq[Beat] = Nil
   ): (CoreResult, RtlResult) = {
-    val beats = frames.flatMap(Beat.frame(_))
+    val beats = if (stream.nonEmpty) stream else frames.flatMap(Beat.frame(_))
     val model = CoreModel.run(config, beats, p)
     var rtl: RtlResult = null
     core.doSim(name, seed.toInt) { dut => rtl = CoreSim.run(dut, beats, p, blanking, rng(name).nextLong()) }
@@ -67,6 +69,25 @@ class FeatureBudgetSpec extends AnyFunSuite {
     val noise = Patterns.noise(narrow._1 + 1, 120, rng("narrow"))
     val (n, _) = check("budget-narrow", Seq.fill(3)(noise), harrisOnly)
     assert(n.cornerCount > 0 && n.features.isEmpty == (narrow._2 == 0), s"${narrow._1}-px frames: ${narrow._2} a cell")
+  }
+
+  test("a frame end while the last frame's cut is being found (a fault right after it, no blanking): RTL == model") {
+    // The fault's frame end comes a few clocks after the good frame's, while the frame end's walk of the histogram
+    // looks for that frame's cut: the cut the next processed frame uses must still be the good frame's.
+    val a = image("leuvenA.png").crop(100, 100, 400, 160)
+    val b = image("graf1.png").crop(100, 100, 400, 160)
+    val p = cornerParams.copy(target = 150)
+    // the line after the good frame ends after 12 pixels: a line fault, the frame's end
+    val faulty = Beat.frame(b).take(12).toVector
+    val cutShort = faulty.updated(11, faulty(11).copy(eol = true))
+    val beats = Seq(a, a, b).flatMap(Beat.frame(_)) ++ cutShort ++ Seq(a, a, a).flatMap(Beat.frame(_))
+    val (model, rtl) = check("budget-walk-fault", Seq(a, a, b, b, a, a, a), p, stream = beats)
+    assert(rtl.counters.badFrames == 1, "the cut-short frame is a bad one")
+    // processed (after the first frame, which learns the geometry): a, b, the cut-short frame, then (after the
+    // re-learning frame) a, a; the cut b's frame end finds is used by the cut-short frame and the next processed one
+    val cuts = model.budget.map(_._1)
+    assert(cuts.size == 5, s"processed frames: ${cuts.size}")
+    assert(cuts(3) == cuts(2) && cuts(3) != cuts(1), s"the frame after re-learning uses b's cut, not a's: $cuts")
   }
 
   test("a flood of corners in every line length, no blanking: every selected corner gets its feature") {
