@@ -451,7 +451,7 @@ object MatcherConfig {
     * unless read into a register of its lane, the lanes ORed into a register, then the push's register) */
   val pushLatency: Int = crossLatency + 3
 
-  /** Parts of the replacement's score comparisons, side by side (`Arith.comparedInParts`): a
+  /** Parts of the score comparisons of the rescan and the replacement, side by side (`Arith.comparedInParts`): a
     * part's equality one LUT level less than in halves. */
   val scoreParts: Int = 3
 

@@ -39,13 +39,14 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
   val k = b.perCell
   val levels = b.levels(h.scoreWidth)
   // The cut is compared from its register (`decide`) and the walk shares the histogram's ports with the winners: a
-  // frame end's walk (a clock per level, a few more around it) ends before the next frame's first winner. The end
-  // fires at the latest as the last band's emission ends (within a band's rows), and a frame's first `border` rows
-  // have no corner, even in the narrowest lines that keep any.
+  // frame end's walk (a clock per level, a few more around it) ends before the next frame's first winner, and so
+  // does the walk of a frame end that came during it and waited (`frameEnd.Firing`). The end fires at the latest as
+  // the last band's emission ends (within a band's rows), and a frame's first `border` rows have no corner, even in
+  // the narrowest lines that keep any.
   private val walkClocks = levels + 8
   require(
-    cfg.perCellSteps.headOption.forall { case (w, _) => walkClocks < (h.border - b.cellHeight).toLong * w },
-    "the frame end's walk would not end before the next frame's first winner"
+    cfg.perCellSteps.headOption.forall { case (w, _) => 2 * walkClocks < (h.border - b.cellHeight).toLong * w },
+    "the frame end's walks would not end before the next frame's first winner"
   )
   val levelWidth = b.levelWidth(h.scoreWidth)
   val rankWidth = b.rankWidth(h.scoreWidth)
@@ -96,12 +97,14 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
 
   /** Corners kept per cell in this frame's line length: `OrbConfig.perCellFor`, from its steps, into a register; the
     * width registered first on the budget's side (it changes only between frames, and comes from the frame tracker,
-    * apart from the lists) */
+    * apart from the lists), then its comparisons with the steps (the choice among them a clock later: the count
+    * changes 22 rows before a frame's first corner) */
   val perCell = new Area {
     val width = RegNext(io.geometry.width) init 0
+    val reaches = cfg.perCellSteps.map { case (from, _) => RegNext(width >= from) init False }
     val fromSteps = UInt(log2Up(k + 1) bits)
     fromSteps := 0
-    for ((from, n) <- cfg.perCellSteps) when(width >= from) { fromSteps := n }
+    for (((_, n), reached) <- cfg.perCellSteps.zip(reaches)) when(reached) { fromSteps := n }
     val now = RegNext(fromSteps) init 0
 
     /** `now` once more, a copy (kept apart) per `FeatureBudget.listsPerCount` lists: the lists lie across the block,

@@ -24,12 +24,11 @@ import orb.Pipes.keptApart
   * correspondences come at the end of the frame, in keyframe order) and every entry is cleared, one per clock.
   * Without cross-check a correspondence leaves as soon as its scan ends, in live order.
   *
-  * Output: a FIFO of `outputDepth` and a skid register behind it (the consumer's ready drives that register's flag
-  * alone). The matcher paces itself to a slow consumer (it takes the next item, and the sweep reads the next entry,
-  * only when the FIFO has room), so nothing is lost to a consumer that is merely slower than one per clock. When
-  * the FIFO has been full for `outputTimeout` clocks (a stalled consumer) it stops waiting and drops, and counts,
-  * what does not fit until the consumer takes one again: the feature stream keeps flowing, so later frames are still
-  * matched.
+  * Output: a FIFO of `outputDepth`. The matcher paces itself to a slow consumer (it takes the next item, and the
+  * sweep reads the next entry, only when the FIFO has room), so nothing is lost to a consumer that is merely
+  * slower than one per clock. When the FIFO has been full for `outputTimeout` clocks (a stalled consumer) it stops
+  * waiting and drops, and counts, what does not fit until the consumer takes one again: the feature stream keeps
+  * flowing, so later frames are still matched.
   *
   * The input's contract (the descriptor unit's output register keeps it): an offered item stays, unchanged, until it
   * is taken and in the clock after its take, its descriptor in the clock after that too, and no item is offered in
@@ -418,24 +417,24 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
     val read = Delay(rescan.issuing, crossLatency + 1, init = False)
     val base = Delay(rescan.group.resize(countWidth) |<< log2Up(P), crossLatency + 1)
     val first = Delay(rescan.issuing && rescan.group === 0, crossLatency + 1, init = False)
-    // the group's lowest score, the first lane on ties, in two registered steps: every pair of lanes compared (a
-    // carry chain from the score registers beside it), then the lane below every lane before it and not above any
-    // after it picked and its score selected in one step (an AND of registered comparisons before the selection: no
-    // comparison waits for a choice, no choice for a comparison, and the scores wait one clock). Only the pairs of a
-    // lane with an earlier one are compared: the picks need no other.
-    val values = scores.map(s => RegNext(s))
-
-    /** lane i's score strictly below lane j's (j < i), registered */
+    // the group's lowest score, the first lane on ties, in three registered steps: every pair of lanes compared side
+    // by side, in parts (no carry through a whole score in one clock), the parts combined, then the lane below every
+    // lane before it and not above any after it picked and its score selected in one step (an AND of registered
+    // comparisons before the selection: no comparison waits for a choice, no choice for a comparison, and the
+    // scores wait two clocks, not three). Only the pairs of a lane with an earlier one are compared: the picks need
+    // no other.
+    val values = scores.map(s => Delay(s, 2))
     def below(i: Int, j: Int): Bool = {
       require(j < i)
-      RegNext(scores(i) < scores(j))
+      val parts = Arith.comparedInParts(scores(j), scores(i), orEqual = false, MatcherConfig.scoreParts)
+      RegNext(Arith.combineParts(RegNext(parts)))
     }
     val belowEarlier = (0 until P).map(i => (0 until i).map(j => below(i, j)))
     val picks = Vec((0 until P).map { i =>
       ((0 until i).map(j => belowEarlier(i)(j)) ++ (i + 1 until P).map(j => !belowEarlier(j)(i))).foldLeft(True)(_ && _)
     })
     val low = RegNext(MuxOH.or(picks, values))
-    val levels = 2
+    val levels = 3
     val index = Delay(base, levels) | RegNext(OHToUInt(picks)).resize(countWidth)
     val valid = Delay(read, levels, init = False)
     val firstD = Delay(first, levels, init = False)
@@ -807,8 +806,7 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
   val push = output.io.push
   push.valid := RegNext(decide.emit || sweptOut.emit) init False
   push.payload := RegNext(beat)
-  // the consumer's ready into a skid register's flag only (`s2mPipe`), not through the FIFO's pop into its pointers
-  io.correspondences << output.io.pop.s2mPipe()
+  io.correspondences << output.io.pop
 
   // each count a clock late: the increment registered first, so no handshake reaches a counter's enables
   val counters = new Area {

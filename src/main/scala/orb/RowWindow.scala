@@ -44,11 +44,11 @@ class RowWindow(val c: RowWindowConfig) extends Area {
       val stored = RegNext(ram.readSync(address.resize(c.addrWidth)))
       for ((r, i) <- rs.zipWithIndex) col(r + 1) := stored(i * c.dataWidth, c.dataWidth bits)
     }
+    // After a fault x saturates at maxWidth: such a pixel is never stored (its frame's output is void anyway).
+    val stores = fire && x < c.maxWidth
     for (((ram, rs), address) <- rams.zip(c.ramRows).zip(readAddresses)) {
-      // After a fault x saturates at maxWidth: such a pixel is never stored (its frame's output is void anyway).
-      val stores = fire && address < c.maxWidth
-      // each RAM's write address and enable delayed in registers of its own (every one kept apart), from its read
-      // address
+      // each RAM's write address and enable delayed in registers of its own (every one kept apart), the address
+      // from the RAM's read address
       val fireD = delayApart(stores, RowWindow.latency, init = False)
       val xD = delayApart(address.resize(c.addrWidth), RowWindow.latency)
       // element r of the column goes one row down: the RAM's rows take the column's elements rs (the newest in the
