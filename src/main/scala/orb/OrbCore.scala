@@ -34,8 +34,7 @@ class OrbCore(val cfg: OrbConfig = OrbConfig.default) extends Component {
   val descriptors = new DescriptorUnit(cfg.frame, cfg.harris, cfg.descriptor)
 
   tracker.io.pixels << io.pixels
-  lines.io.pixels << tracker.io.tracked
-  lines.io.readX := tracker.io.xCopies
+  lines.follow(tracker)
   harris.io.columns << lines.io.columns
   harris.io.geometry := tracker.io.geometry
   harris.io.control := io.cornerControl

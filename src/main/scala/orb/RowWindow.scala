@@ -80,6 +80,12 @@ class LineBuffer(f: FrameConfig, rows: Int) extends Component {
   io.columns.valid := Delay(io.pixels.valid, RowWindow.latency, init = False)
   io.columns.pixel := Delay(io.pixels.payload, RowWindow.latency)
   for (r <- 0 until rows) io.columns.column(r) := col(r).asUInt
+
+  /** Fed by `tracker`: its tracked pixels and its copies of x (made for this buffer: `LineBuffer.readCopies`). */
+  def follow(tracker: FrameTracker): Unit = {
+    io.pixels << tracker.io.tracked
+    io.readX := tracker.io.xCopies
+  }
 }
 
 object LineBuffer {

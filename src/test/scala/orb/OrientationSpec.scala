@@ -22,8 +22,7 @@ class OrientationHarness(c: OrbConfig, budgeted: Boolean = true) extends Compone
   val harris = new HarrisDetector(c.frame, c.harris, rows)
   val orientation = new OrientationUnit(c.frame, c.harris, c.descriptor, rows)
   tracker.io.pixels << io.pixels
-  lines.io.pixels << tracker.io.tracked
-  lines.io.readX := tracker.io.xCopies
+  lines.follow(tracker)
   harris.io.columns << lines.io.columns
   harris.io.geometry := tracker.io.geometry
   harris.io.control := io.control

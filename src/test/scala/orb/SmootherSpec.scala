@@ -17,8 +17,7 @@ class SmootherHarness(f: FrameConfig) extends Component {
   val lines = new LineBuffer(f, 7)
   val smoother = new Smoother(f, 7)
   tracker.io.pixels << io.pixels
-  lines.io.pixels << tracker.io.tracked
-  lines.io.readX := tracker.io.xCopies
+  lines.follow(tracker)
   smoother.io.columns << lines.io.columns
   io.smoothed << smoother.io.smoothed
 }
