@@ -117,9 +117,12 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
     // a row start writes the entry of the count it starts, one more than the count's low bits before it (by a copy
     // of the row start of the history's own)
     val rowLow = clock.row.resize(log2Up(historyRows))
+
+    /** a row start (`writes`, a copy of it) writes `entry` in this clock */
+    def writesEntry(writes: Bool, entry: UInt): Bool = writes && rowLow + 1 === entry
     val writesHistory = startsRowCopy()
     for (i <- 0 until historyRows) {
-      when(writesHistory && rowLow === (i + historyRows - 1) % historyRows) {
+      when(writesEntry(writesHistory, U(i, log2Up(historyRows) bits))) {
         history(i) := thisRow
       }
     }
@@ -322,9 +325,13 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
     val sinceRow = keptApart(RegNext(o.item.startRow))
     val lateRow = keptApart(RegNext(o.item.startRow + d.slackRows))
 
-    /** the head's start row's entry in the rows' history, one-hot (kept apart, beside the history's tests): the
-      * test of the row it names is an AND-OR, not a multiplexer on a row number */
-    val startEntry = keptApart(RegNext(UIntToOh(o.item.startRow.resize(log2Up(historyRows)))))
+    /** the rows' history entry of the head's start row as it is after this clock (the row a row start writes into
+      * it now, if one does), registered beside `tags`: the dispatch's test of the head's rows compares two
+      * registers, with no choice among the entries after the frame tag */
+    val startRowInfo = RegNext {
+      val entry = o.item.startRow.resize(log2Up(historyRows))
+      Mux(ring.writesEntry(ring.startsRowCopy(), entry), ring.thisRow, ring.history(entry))
+    }
   }
 
   /** The oldest slot's feature or a frame's end, offered to the output register (`leaving`). */
@@ -351,10 +358,10 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
     // late: `slackRows` rows since or more, as the sign of the rows since the late row (one subtraction; it differs
     // from that comparison only while the head is early, when no decision reads it)
     val late = RegNext(!(ring.clock.row - headOf.lateRow).asSInt.msb) init False
-    // each row's test against the head's frame, then the one its start row names (the same entry as the row
+    // the test of the row the head's start row names against the head's frame (the same entry as the row
     // `difference` rows back whenever that is within the slack: otherwise `early` or `late` decides)
-    val goodRows = Vec(ring.history.map(row => row.active && row.frame === c.frameTag))
-    val dataOk = RegNext((goodRows.asBits & headOf.startEntry).orR) init False
+    val startRow = headOf.startRowInfo
+    val dataOk = RegNext(startRow.active && startRow.frame === c.frameTag) init False
     val due = current && !early
     // the head's frame is over at the ring (a frame started since): a head not yet due never will be (its start
     // row was not processed: the ring stood still from a fault to the frame's end)
@@ -674,7 +681,12 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
       when(ownEnable() && valid) {
         group := group + 1
       }
-      when(valid && Mux(tag, slots(1).abandonCopy(), slots(0).abandonCopy())) {
+      // the fetched corner's slot abandoned in the last clock, chosen a clock ahead by the next tag into one
+      // register (kept apart): the count's reset is then one register, not a choice between two
+      val abandoned = keptApart(
+        RegNext(Mux(tag.getAheadValue(), slots(1).abandonNext, slots(0).abandonNext)) init False
+      )
+      when(valid && abandoned) {
         group := groups
       }
 

@@ -123,6 +123,15 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
   }
   val activity = RegInit(Activity.IDLE)
 
+  /** the conditions on which an activity ends (back to idle), each from `endsOn`: the readiness reads them all */
+  val ending = scala.collection.mutable.ArrayBuffer[Bool]()
+  def endsOn(cond: Bool): Unit = {
+    ending += cond
+    when(cond) {
+      activity := Activity.IDLE
+    }
+  }
+
   val stored = Reg(UInt(countWidth bits)) init 0
   val storedNow = Mux(kind.emptiesStore, U(0, countWidth bits), stored)
   // stored + 1 in a register beside it: the count changes only as a keyframe feature is taken, and items are at
@@ -180,7 +189,10 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
     // the store's count tested in registers a clock late: it changes only as a keyframe feature is taken, and items
     // are at least two clocks apart (the input's contract), so the next one meets the tests of the count it left
     val emptied = kind.emptiesStore
-    val full = RegNext(stored === m.storeCapacity) init False
+    // full: the count at the capacity, a register that changes with the count (from a register beside the count
+    // that compares it with one less), so the next item's append test (`appendLanes`) compares no count
+    val full = Reg(Bool()) init False
+    val almostFull = RegNext(stored === m.storeCapacity - 1) init Bool(m.storeCapacity == 1)
     val room = emptied || !full
     val storedZero = emptied || groupsCompared.zero
     val append = keyFeature && room
@@ -217,7 +229,7 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
     // the count names): a register per lane from the next values of the kind and of the count's tests, the same
     // values a clock ahead, so a lane's enable is the take and one register (or the replacement's registers)
     val emptiesNext = kind.emptiesStore.getAheadValue()
-    val appendsNext = kind.keyFeature.getAheadValue() && (emptiesNext || !(stored === m.storeCapacity))
+    val appendsNext = kind.keyFeature.getAheadValue() && (emptiesNext || !full)
     val appendLanes = Vec((0 until P).map { l =>
       val laneNext = Mux(emptiesNext, Bool(l == 0), laneIs(stored.resize(laneBits), l))
       RegNext(appendsNext && laneNext) init False
@@ -226,9 +238,13 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
     /** a write (an append or a replacement) for lane `l`: the two never come in the same clock */
     def writes(l: Int): Bool = (take && appendLanes(l)) || (replace && weakestLanes(l))
     val overflow = meetsFull
-    when(take && kind.emptiesStore) { stored := 0 }
+    when(take && kind.emptiesStore) {
+      stored := 0
+      full := False
+    }
     when(append) {
       stored := Mux(kind.emptiesStore, U(1, countWidth bits), storedPlusOne)
+      full := Mux(kind.emptiesStore, Bool(m.storeCapacity == 1), almostFull)
     }
     // an appended feature that becomes the weakest: compared as it is taken (its score below the weakest's, in parts
     // into registers, as `strongerParts`), decided and written a clock later (the next item is taken two clocks
@@ -307,14 +323,20 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
     val roomForItem = RegNext(output.io.availability >= 3) init True
     val waited = Reg(UInt(log2Up(m.outputTimeout + 1) bits)) init 0
 
+    /** waited === outputTimeout - 1, a register beside the count: the readiness reads the next `giveUp` (below),
+      * which then tests no count */
+    val lastWait = Reg(Bool()) init Bool(m.outputTimeout == 1)
+
     /** waited === outputTimeout, kept in its own register */
     val giveUp = Reg(Bool()) init False
     when(!tight) {
       waited := 0
+      lastWait := Bool(m.outputTimeout == 1)
       giveUp := False
     } elsewhen (!giveUp) {
       waited := waited + 1
-      giveUp := waited === m.outputTimeout - 1
+      lastWait := (if (m.outputTimeout >= 2) waited === m.outputTimeout - 2 else True)
+      giveUp := lastWait
     }
     val sweepRoom = !tight || giveUp
   }
@@ -335,9 +357,7 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
       following := following + 1
       more := following < stored
     }
-    when(busy && !more) {
-      activity := Activity.IDLE
-    }
+    endsOn(busy && !more)
     when(take && kind.liveEnd) {
       activity := Activity.SWEEP
       entry := 0
@@ -368,9 +388,7 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
       group := group + 1
       atLast := (if (m.groups >= 2) group === m.groups - 2 else True)
     }
-    when(busy && atLast) {
-      activity := Activity.IDLE
-    }
+    endsOn(busy && atLast)
     when(take && kind.keyEnd) {
       activity := Activity.KEY_END
       group := 0
@@ -484,8 +502,8 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
     // busy until the new weakest is in place, so that the next keyframe feature compares against it: a clock after
     // the last pair's choice
     val last = RegNext(choose.last) init False
+    endsOn(last)
     when(last) {
-      activity := Activity.IDLE
       weakest.score := accScore
       weakest.index := accIndex
     }
@@ -662,9 +680,7 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
     val ratioOk = !p.ratioTest || ratioLess
     val withinThreshold = RegNext(a.best.distance <= p.hammingThreshold) init False
     val accepted = done && withinThreshold && ratioOk
-    when(done || emptyDone) {
-      activity := Activity.IDLE
-    }
+    endsOn(done || emptyDone)
     // The decision registered: the mark's write and the correspondence's push leave a clock later (the next
     // feature's scan reads nothing for several clocks, and the live position stays until it starts).
     val bestLane = a.best.index.resize(log2Up(P) max 1)
@@ -782,9 +798,13 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
   // taken then (`waiting`: offered now, its kind registered by then).
   // A keyframe feature that meets a full store holds the next item two clocks, whether it replaces (the rescan
   // starts then) or not: no score comparison in the readiness's logic.
+  // The activity's next value is read as if nothing were taken now: the readiness in the clock after a take is
+  // never used (nothing is offered then: `waiting` is low), so no take (a handshake's AND and the kind's choice of a
+  // new activity) lies before the readiness's register; nor does a full store's meeting (`meetsFull`), for the same
+  // reason. Idle next unless taken: idle now and no rescan starting, or an activity ending now.
+  val idleUntaken = (activity === Activity.IDLE && !rescan.starting) || ending.reduce(_ || _)
   val readyNext =
-    activity.getAheadValue() === Activity.IDLE && !sweep.drainingNext && !load.meetsFull &&
-      !load.metFull && (paced.roomForItem || paced.giveUp.getAheadValue())
+    idleUntaken && !sweep.drainingNext && !load.metFull && (paced.roomForItem || paced.giveUp.getAheadValue())
   val ready = RegNext(readyNext) init True
   take := ready && waiting
   item.ready := take

@@ -86,7 +86,12 @@ class OrientationUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, c
     val xZero = RegNext(pixelFirst.x === 0)
     val yZero = RegNext(pixelFirst.y === 0)
     val validSecond = RegNext(validFirst) init False
-    val frameStart = Delay(validSecond && xZero && yZero, latency - 2, init = False)
+    require(latency >= 3, "the frame start's copies branch a clock before it")
+    val frameStartAhead = Delay(validSecond && xZero && yZero, latency - 3, init = False)
+    val frameStart = RegNext(frameStartAhead) init False
+
+    /** a copy of `frameStart` (kept apart) for a consumer that lies apart from the sums */
+    def frameStartCopy(): Bool = keptApart(RegNext(frameStartAhead) init False)
     // the row's start compared a clock ahead, from the registers before `valid` and `pixel`; only processed rows
     // count, as on the descriptor unit's ring (a corner's tags name rows the ring counts)
     val rowStart = RegNext(validAhead && pixelAhead.x === 0 && pixelAhead.active) init False
@@ -200,7 +205,8 @@ class OrientationUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, c
   val staleDrop = head.fire && !finishHere // its last column went by (a frame ended early, or the queue was late)
   val faultDrop = finishHere && !sums.active
   // A new frame: what is still queued belongs to a frame that ended before its rows came.
-  queue.io.flush := sums.frameStart
+  // the queue's pointers lie apart from the sums: a copy of the frame start of their own
+  queue.io.flush := sums.frameStartCopy()
 
   /** the most corners one clock can drop: the queue, its output register, its buffer and two head registers
     * flushed, the one arriving then and the one in front of the queue, one more */
