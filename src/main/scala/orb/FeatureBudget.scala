@@ -636,15 +636,16 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
     val bottom = Reg(Bool()) init Bool(levels == 1)
     val need = Reg(UInt(BudgetConfig.targetWidth + 1 bits)) init 0
     val found = Reg(Bool()) init False
-    // the winners left in the banks when the frame end fires, counted in three registered steps (a list's count,
-    // a bank's, their sum) and so reported three clocks later
-    // (summed as wide as all the banks' entries need, not as the counter: short carry chains)
+    // the winners left in the banks when the frame end fires, counted in registered steps (a list's count, a
+    // bank's, their sum, the sum passed on in the firing's clock only) and so reported four clocks later
+    // (summed as wide as all the banks' entries need, not as the counter: short carry chains; the banks lie apart,
+    // so their sum has a clock of its own before the choice)
     val dropWidth = log2Up(banks.size * cells * k + 1)
     val listCounts = RegNext(Vec(banks.map(bank => Vec(bank.map(list => CountOne(list.map(_.valid).toSeq))))))
     val bankCounts = RegNext(Vec(listCounts.map(_.map(_.resize(dropWidth)).reduceBalancedTree(_ + _))))
-    val fired = Delay(fire, 2, init = False)
-    val dropped =
-      RegNext(fired ? bankCounts.reduceBalancedTree(_ + _).resize(f.counterWidth) | U(0, f.counterWidth bits))
+    val bankSum = RegNext(bankCounts.reduceBalancedTree(_ + _))
+    val fired = Delay(fire, 3, init = False)
+    val dropped = RegNext(fired ? bankSum.resize(f.counterWidth) | U(0, f.counterWidth bits))
     dropped.init(0)
     // the banks emptied by their own copies of the firing, one per `FeatureBudget.cellsPerFiring` cells of a bank
     for (bank <- banks; cells <- bank.grouped(FeatureBudget.cellsPerFiring)) {
