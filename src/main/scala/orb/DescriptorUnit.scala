@@ -444,18 +444,16 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
       * combines four registers: the row start, a start with one row left, `atRisk` (the slot runs on its last row:
       * decided a clock before from the next values of what it tests) and whether its last group is collected now.
       * (A slot takes a corner only when idle, so a start and `atRisk` never meet.) `abandonCopies` (kept apart)
-      * serve the front end's copies of `advance`, `abandonCopy()` makes one more for another consumer far from the
-      * slot. */
+      * serve the front end's copies of `advance`; the fetch chooses its own copy from `abandonNext`. */
     val abandon = Reg(Bool()) init False
     val rowStarts = ring.startsRowCopy()
     // the slot's own copy of the row start (its row count and abandonment lie with it)
     val rowStart = ring.rowStartCopy()
     val abandonNext = rowStarts && (beginsOnLastRow || (atRisk && !collectsLast))
     abandon := abandonNext
-    def abandonCopy(): Bool = {
+    val abandonCopies = Seq.fill(DescriptorUnit.advanceCopies / DescriptorUnit.advanceCopiesPerAbandon) {
       keptApart(RegNext(abandonNext) init False)
     }
-    val abandonCopies = Seq.fill(DescriptorUnit.advanceCopies / DescriptorUnit.advanceCopiesPerAbandon)(abandonCopy())
 
     def begin(c: PreparedCorner, b: UInt, left: UInt): Unit = {
       state := EngineState.RUN
@@ -681,8 +679,8 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
       when(ownEnable() && valid) {
         group := group + 1
       }
-      // the fetched corner's slot abandoned in the last clock, chosen a clock ahead by the next tag into one
-      // register (kept apart): the count's reset is then one register, not a choice between two
+      // the fetched corner's slot's `abandon`, chosen a clock ahead by the next tag into one register (kept
+      // apart): the count's reset is then one register, not a choice between two
       val abandoned = keptApart(
         RegNext(Mux(tag.getAheadValue(), slots(1).abandonNext, slots(0).abandonNext)) init False
       )

@@ -637,7 +637,7 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
     val need = Reg(UInt(BudgetConfig.targetWidth + 1 bits)) init 0
     val found = Reg(Bool()) init False
     // the winners left in the banks when the frame end fires, counted in registered steps (a list's count, a
-    // bank's, their sum, the sum passed on in the firing's clock only) and so reported four clocks later
+    // bank's, their sum; the firing's own sum passed on, three clocks after it) and so reported four clocks later
     // (summed as wide as all the banks' entries need, not as the counter: short carry chains; the banks lie apart,
     // so their sum has a clock of its own before the choice)
     val dropWidth = log2Up(banks.size * cells * k + 1)

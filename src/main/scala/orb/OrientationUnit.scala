@@ -86,7 +86,7 @@ class OrientationUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, c
     val xZero = RegNext(pixelFirst.x === 0)
     val yZero = RegNext(pixelFirst.y === 0)
     val validSecond = RegNext(validFirst) init False
-    require(latency >= 3, "the frame start's copies branch a clock before it")
+    // (latency >= 3, required above: the frame start's copies branch a clock before it)
     val frameStartAhead = Delay(validSecond && xZero && yZero, latency - 3, init = False)
     val frameStart = RegNext(frameStartAhead) init False
 
