@@ -828,18 +828,11 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
   push.payload := RegNext(beat)
   io.correspondences << output.io.pop
 
-  // each count a clock late: the increment registered first, so no handshake reaches a counter's enables
+  // each count a clock late (`Pipes.lateCounter`): no handshake reaches a counter's enables
   val counters = new Area {
-    def counter(inc: Bool): UInt = {
-      val c = Reg(f.counter()) init 0
-      when(RegNext(inc) init False) {
-        c := c + 1
-      }
-      c
-    }
     io.status.stored := stored.resized
-    io.status.storeOverflow := counter(load.overflow)
-    io.status.matches := counter(push.fire)
-    io.status.matchDrops := counter(push.valid && !push.ready)
+    io.status.storeOverflow := Pipes.lateCounter(f, load.overflow)
+    io.status.matches := Pipes.lateCounter(f, push.fire)
+    io.status.matchDrops := Pipes.lateCounter(f, push.valid && !push.ready)
   }
 }

@@ -46,11 +46,8 @@ class OrbCore(val cfg: OrbConfig = OrbConfig.default) extends Component {
   descriptors.io.smoothed << smoother.io.smoothed
   descriptors.io.corners << orientation.io.oriented
   io.features << descriptors.io.features
-  val featureCount = Reg(cfg.frame.counter()) init 0
-  // counted a clock late, as the matcher's counters: the handshake reaches one register, not the counter's enables
-  when(RegNext(io.features.fire && !io.features.end.now) init False) {
-    featureCount := featureCount + 1
-  }
+  // counted a clock late: the handshake reaches one register, not the counter's enables
+  val featureCount = Pipes.lateCounter(cfg.frame, io.features.fire && !io.features.end.now)
   io.status.features := featureCount
   // the sum of the blocks' drop counts registered (a clock late): the register map reads it through one LUT level
   io.status.featureDrops := RegNext(budget.io.dropped + orientation.io.dropped + descriptors.io.dropped) init 0

@@ -7,6 +7,16 @@ import spinal.lib.misc.pipeline.StagePipeline
 /** Registers shaped for timing. */
 object Pipes {
 
+  /** A status count of the clocks `inc` is high, counted a clock late: the increment registered first, so no
+    * handshake reaches the counter's enables. */
+  def lateCounter(f: FrameConfig, inc: Bool): UInt = {
+    val c = Reg(f.counter()) init 0
+    when(RegNext(inc) init False) {
+      c := c + 1
+    }
+    c
+  }
+
   /** `r`, a register, kept apart: the Verilog attribute `preserve` (which Quartus honours, and the proxy's Yosys
     * flows too) stops synthesis from merging it with an identical register, so each copy of a value stays beside
     * the logic it drives. */
