@@ -134,6 +134,17 @@ object Ecp5Proxy {
     io.data := RegNext(read.asUInt + 1)
   }
 
+  /** Two registers kept apart (`preserve`), one after the other, whose fields are read in part: the part nothing
+    * reads is pruned by both flows through both registers, as by Quartus (`preserve` stops merging, not pruning). */
+  class KeptProbe extends Component {
+    val io = new Bundle {
+      val in = slave(Flow(new Bundle { val a = UInt(8 bits); val b = UInt(8 bits) }))
+      val a = out UInt (8 bits)
+    }
+    val kept = Pipes.delayApart(io.in.payload, 2)
+    io.a := kept.a
+  }
+
   class MulProbe extends Component {
     val io = new Bundle {
       val a = in UInt (16 bits)
@@ -350,6 +361,8 @@ object Ecp5Proxy {
       "hierarchy -top proxy_top",
       // constant tables stay logic, as in the resource flow and the Quartus project (AUTO_ROM_RECOGNITION OFF)
       "proc -norom",
+      // a register nothing reads goes first, kept apart or not: Quartus prunes it (`preserve` stops merging, not that)
+      "opt_clean",
       // copies of a register the design keeps apart (`preserve`, as Quartus honours it) stay apart
       "select -set preserved a:preserve %ci1:+[Q] a:preserve %d",
       "setattr -set keep 1 @preserved",

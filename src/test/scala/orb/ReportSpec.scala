@@ -88,6 +88,17 @@ class ReportSpec extends AnyFunSuite {
     assert(alone(r.toplevelName) == 10, alone)
   }
 
+  test("the resource count: a register kept apart that nothing reads takes no logic element") {
+    val dir = new File("target/report-test/kept")
+    val r = Generate.spinalConfig(dir.getPath).generate(new Ecp5Proxy.KeptProbe)
+    val verilog = scala.io.Source.fromFile(new File(dir, s"${r.toplevelName}.v")).mkString
+    val keptUnread = "\\(\\* preserve \\*\\) reg +\\[7:0\\] +\\w+_b;".r
+    assert(keptUnread.findAllIn(verilog).size == 2, "the unread field's two kept registers are in the Verilog")
+    val (stat, _) = ResourceCount.runYosys(dir, new File(dir, s"${r.toplevelName}.v"), r.toplevelName)
+    val cells = ResourceCount.total(r.toplevelName, ResourceCount.parseStat(stat))
+    assert(cells.ffs == 16 && cells.luts == 0, cells)
+  }
+
   test("ABC's address-dependent assertion (run Yosys again) is told from any other failure of the resource count") {
     val aborted = Seq(
       "ABC: + lutpack -S 1 ",
