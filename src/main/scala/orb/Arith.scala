@@ -97,9 +97,12 @@ object Arith {
     /** part `q`'s word at `index` (its low bits) */
     private def word(q: Int, index: UInt): UInt = {
       val entries = (0 until partSize).map(i => table.lift(q * partSize + i).getOrElse(BigInt(0)))
-      Vec(entries.map(v => U(v, width bits)))(index.resize(log2Up(partSize)))
+      Vec(entries.map(v => U(v, width bits)))(within(index))
     }
     def words(index: UInt): Vec[UInt] = Vec((0 until parts).map(word(_, index)))
+
+    /** the bits of `index` a part's word reads (its low bits; `part` takes the rest) */
+    def within(index: UInt): UInt = index.resize(log2Up(partSize))
 
     /** `words`, each part read with its own copy of the index (the copies kept apart: no one register drives
       * every part) */

@@ -396,6 +396,10 @@ case class MatcherConfig(
     isPow2(popcountChunkBits) && popcountChunkBits <= OrbDescriptorConfig.descriptorBits,
     "popcountChunkBits must be a power of two"
   )
+  require(
+    popcountChunkBits < OrbDescriptorConfig.descriptorBits,
+    "the popcount adds at least two chunks' counts (its last stage is an adder)"
+  )
   require(outputDepth >= MatcherConfig.pushLatency + 2, "the output FIFO must hold the sweep's pushes in flight")
   require(
     defaultHammingThreshold >= 0 && defaultHammingThreshold <= 256 && defaultRatio >= 0 && defaultRatio < (2 << ratioFracBits)
@@ -469,18 +473,27 @@ object MatcherConfig {
 
   /** The Hamming distance of `a` and `b` (256 bits), after `popcountStages` clocks: their xor registered (beside the
     * lane's logic: `a` comes from a RAM's output register), the chunk counts registered, then a register every
-    * `popcountLevelsPerStage` levels of the adder tree, and after the last. */
-  def hamming(a: Bits, b: Bits, m: MatcherConfig): UInt = {
+    * `popcountLevelsPerStage` levels of the adder tree, and after the last (`distance`). */
+  class Hamming(a: Bits, b: Bits, m: MatcherConfig) extends Area {
     import spinal.lib._
     val differ = RegNext(a ^ b)
-    var v: Seq[UInt] = differ.subdivideIn(m.popcountChunkBits bits).map(c => RegNext(CountOne(c))).toSeq
-    var level = 0
-    while (v.size > 1) {
+    private var v: Seq[UInt] = differ.subdivideIn(m.popcountChunkBits bits).map(c => RegNext(CountOne(c))).toSeq
+    private val levels = treeLevels(m)
+    // the last stage's levels: the stages before it end on a multiple of `popcountLevelsPerStage`
+    private val lastStage = (levels - 1) % m.popcountLevelsPerStage + 1
+    for (level <- 1 to levels - lastStage) {
       v = v.grouped(2).map(g => g(0) +^ g(1)).toSeq
-      level += 1
-      if (level % m.popcountLevelsPerStage == 0 || v.size == 1) v = v.map(RegNext(_))
+      if (level % m.popcountLevelsPerStage == 0) v = v.map(RegNext(_))
     }
-    v.head.resize(distanceWidth)
+
+    /** the last stage's sum, before its register */
+    val sum = v.reduceBalancedTree(_ +^ _).resize(distanceWidth)
+    val distance = RegNext(sum)
+
+    /** whether the distance is below `limit` (a value a clock before the distance's), registered beside it: compared
+      * with the last stage's sum (a short carry chain behind its adder), so no comparison waits for the distance's
+      * register */
+    def below(limit: UInt): Bool = RegNext(sum < limit)
   }
 }
 

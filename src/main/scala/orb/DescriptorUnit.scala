@@ -596,10 +596,10 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
     private val enableRequests = scala.collection.mutable.ArrayBuffer[(Bool, Int)]()
 
     /** enables of registers that lie apart from the registers made before and after them, by site: a copy of
-      * `advance` per site (`issue.advanceCopy`), which lies there. A point's registers beside its multipliers
-      * through several stages, a table part's of a pattern slice beside that part (`stepAt`); the fetch's count, the
-      * pattern's parts and pick, the rotation's first steps beside the dispatch each a site of its own
-      * (`stepApart`). */
+      * `advance` per site (`issue.advanceCopy`), which lies there. A point's registers beside its multipliers in
+      * three sites (its operands, its products, their plain copies: about a hundred registers each), a table part's
+      * of a pattern slice beside that part (`stepAt`); the fetch's count, the pattern's parts and pick, the
+      * rotation's first steps beside the dispatch each a site of its own (`stepApart`). */
     private val siteEnables =
       scala.collection.mutable.LinkedHashMap[String, scala.collection.mutable.ArrayBuffer[Bool]]()
     private def siteEnable(site: String): Bool = {
@@ -743,13 +743,14 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
           // each table part's index copy and word a site of their own (a copy of `advance` each: one slice's
           // words are hundreds of registers)
           def site(q: Int): String = s"slice${sl}part$q"
+          // (only the bits each copy's lookup reads: a kept copy's unused bits would be kept too)
           val indexCopies = (0 until DescriptorUnit.tableParts).map { q =>
-            keptApart(stepAt(site(q))(fetch.group.resize(log2Up(groups))))
+            keptApart(stepAt(site(q))(table.within(fetch.group.resize(log2Up(groups)))))
           }
           val words = Vec(table.wordsEach(indexCopies).zipWithIndex.map { case (w, q) => stepAt(site(q))(w) })
-          // the part, a copy per point's coordinate (kept apart), from a count copy of its own
-          val partCount = keptApart(stepApart(fetch.group.resize(log2Up(groups))))
-          val parts = Seq.fill(sliceWidth / fieldWidth)(keptApart(stepApart(table.part(partCount))))
+          // the part, a copy per point's coordinate (kept apart), from a copy of the count's part of its own
+          val partCount = keptApart(stepApart(table.part(fetch.group.resize(log2Up(groups)))))
+          val parts = Seq.fill(sliceWidth / fieldWidth)(keptApart(stepApart(partCount)))
         }
       }
       // Cat of a sequence puts its first element in the low bits: slice 0 there, as in the table's words
@@ -810,7 +811,7 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
         o.ySubtract := xsNegative =/= ycNegative
         o.xNegative := xcNegative
         o.yNegative := xsNegative
-        stepAt(s"point$i")(o)
+        stepAt(s"point${i}products")(o)
       }
     }
     // |x'| and |y'| rounded half to even: the quotient's bits with the sign folded in (ones' complement) and the
@@ -856,7 +857,7 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
     // the products once more in plain registers: the multipliers' own output registers lie apart from the adders
     val near = new Area {
       val token = stepToken(products.token)
-      val p = products.p.zipWithIndex.map { case (p, i) => stepAt(s"point$i")(p) }
+      val p = products.p.zipWithIndex.map { case (p, i) => stepAt(s"point${i}near")(p) }
     }
     val totals = new Area {
       val token = stepToken(near.token)

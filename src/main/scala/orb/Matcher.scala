@@ -421,10 +421,6 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
       entry.assignFromBits(Cat(lane.store.map(_.read(address(scan.readAddr)))).resize(entryWidth))
       val crossRead = RegNext(lane.cross.readSync(crossAddr))
       val cross = RegNext(crossRead)
-
-      /** the cross word's distance again (kept apart), beside the scan's comparison: the cross word's register also
-        * serves the rescan and the sweep, apart */
-      val crossDistance = keptApart(RegNext(crossRead.distance))
     }
 
   // The rescan's data path: the scores read through the cross port, the lowest (first on ties) of them all.
@@ -555,10 +551,13 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
     val results =
       for ((r, l) <- reads.zipWithIndex) yield new Area {
         val liveDescriptor = liveCopies(l / MatcherConfig.lanesPerLiveCopy)
-        val count = MatcherConfig.hamming(r.entry.descriptor, liveDescriptor, m)
+        val popcount = new MatcherConfig.Hamming(r.entry.descriptor, liveDescriptor, m)
+        val count = popcount.distance
         val index = (group.resize(countWidth) |<< log2Up(P)) | U(l, countWidth bits)
         val real = reals(l)
-        val wins = valid && real && count < r.crossDistance
+        // the entry's best so far compared with the popcount's last sum, a clock before the count, as its cross word
+        // comes out of the RAM's register: the lane's write enable waits for no comparison
+        val wins = valid && real && popcount.below(r.crossRead.distance)
         // A live feature nearer than the entry's best so far takes the entry over (mutual decided when its scan ends).
         val update = Cross(); update.distance := count; update.mutual := False
         update.liveX := scan.live.x; update.liveY := scan.live.y

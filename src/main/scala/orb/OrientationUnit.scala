@@ -58,23 +58,26 @@ class OrientationUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, c
     // the column stream's valid and position delayed by registers of this block's own (`Pipes.delayApart`)
     require(latency >= 3)
     val validFirst = keptApart(RegNext(io.columns.valid) init False)
-    val pixelFirst = keptApart(RegNext(io.columns.pixel))
+    // (the pixel's place only: its value is in the column, and kept registers are kept even when nothing reads them)
+    val pixelFirst = keptApart(RegNext(io.columns.pixel.place))
     val validAhead = delayApart(validFirst, latency - 2, init = False)
     val valid = keptApart(RegNext(validAhead) init False)
 
     /** a copy of `valid` (its last register kept apart) for a consumer apart from the chains */
     def validCopy(): Bool = keptApart(RegNext(validAhead) init False)
-    // the beat's pixel beside its sums, and a clock before (`pixelAhead`; the head is compared a clock ahead with
-    // its position's copy, `positionAhead`)
-    val pixelBefore = delayApart(pixelFirst, latency - 3)
+    // the beat's pixel beside its sums, a clock before (`pixelAhead`) and two (`pixelBefore`; the head is compared
+    // two clocks ahead with its position's copy, `positionEarly`)
+    require(latency >= 4, "the head's comparisons branch from the pixel's delay three clocks before the beat")
+    val pixelEarlier = delayApart(pixelFirst, latency - 4)
+    val pixelBefore = keptApart(RegNext(pixelEarlier))
     val pixelAhead = keptApart(RegNext(pixelBefore))
     val pixel = RegNext(pixelAhead)
 
-    /** the position of `pixelAhead` in a copy of its own (kept apart) beside the head's comparisons: the register
-      * that serves the sums, the row's start and the beat lies apart from them */
-    val positionAhead = new Area {
-      val x = keptApart(RegNext(pixelBefore.x))
-      val y = keptApart(RegNext(pixelBefore.y))
+    /** the position of `pixelBefore` beside the head's comparisons: its column in a copy of its own (kept apart; the
+      * register that serves the row's start lies apart from them), its row `pixelBefore`'s (nothing else reads it) */
+    val positionEarly = new Area {
+      val x = keptApart(RegNext(pixelEarlier.x))
+      val y = pixelBefore.y
     }
     val x = pixel.x
     val y = pixel.y
@@ -158,7 +161,7 @@ class OrientationUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, c
   }
 
   // The queue's head, through a register (a RAM's output is too slow to decide on in the same clock), with the
-  // position of its last column computed as it loads.
+  // position of its last column computed as it loads into the corner after the head.
   case class Waiting() extends Bundle {
     val corner = CornerHw(f, h)
     val lastX, lastY = UInt(cw bits)
@@ -171,29 +174,41 @@ class OrientationUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, c
   // head is in place again in the clock the head can next fire.
   val fromRam = queue.io.pop.m2sPipe(flush = sums.frameStart)
   val buffered = fromRam.s2mPipe(flush = sums.frameStart)
-  val popped = Pipes.halfPipe(buffered, flush = sums.frameStart)
-  val head = popped.map { c =>
+  val withLast = buffered.map { c =>
     val w = Waiting()
     w.corner := c
     w.lastX := c.x + R
     w.lastY := c.y + R
     w
-  }.m2sPipe(flush = sums.frameStart)
-  // The head against the stream position, compared a clock ahead (the position `sums` shows next) into registers. A
-  // head loaded in the last clock has no comparisons of its own yet and waits a clock: its last column is at least
-  // two pixels after the head before it (the 3x3 suppression), and corners reach the queue rows before it.
+  }
+  val popped = Pipes.halfPipe(withLast, flush = sums.frameStart)
+  val head = popped.m2sPipe(flush = sums.frameStart)
+  // The head against the stream position: compared two clocks ahead (the position `sums` shows in the next clock
+  // but one) into registers, with the head and with the corner after it, and the comparisons of the one the head
+  // holds in the next clock chosen then (a head loaded in the last clock has its own from the corner after it).
+  // A head loaded in the last clock still waits a clock: its last column is at least two pixels after the head
+  // before it (the 3x3 suppression), and corners reach the queue rows before it.
   val ahead = new Area {
-    val x = sums.positionAhead.x
-    val y = sums.positionAhead.y
     // the position as one number, row above column (x < 2^cw): "reached" is one comparison, one carry chain
-    val position = y @@ x
-    val last = head.lastY @@ head.lastX
-    val at = RegNext(position === last) init False
+    val position = sums.positionEarly.y @@ sums.positionEarly.x
 
-    /** the head is the one the comparisons were made with, and the stream has reached its last column (or gone
-      * past it): the pop needs no comparison of its own, so the queue's enables follow two registers. The row and
-      * the column compared side by side (two short carry chains, not one through both) */
-    val reached = Arith.combineParts(Arith.comparedInParts(position, last, orEqual = true, parts = 2))
+    /** whether the stream has reached `w`'s last column (or gone past it: the row and the column compared side by
+      * side, two short carry chains, not one through both), and whether it is there, a clock later */
+    class Compared(w: Waiting) extends Area {
+      val last = w.lastY @@ w.lastX
+      val reached = RegNext(Arith.combineParts(Arith.comparedInParts(position, last, orEqual = true, parts = 2)))
+      val at = RegNext(position === last)
+    }
+    val ofHead = new Compared(head.payload)
+    val ofNext = new Compared(popped.payload)
+
+    /** the head took the corner after it in the last clock */
+    val loaded = RegNext(popped.fire) init False
+    val reached = Mux(loaded, ofNext.reached, ofHead.reached)
+    val at = RegNext(Mux(loaded, ofNext.at, ofHead.at)) init False
+
+    /** the head is the one the comparisons were made with, and the stream has reached its last column: the pop
+      * needs no comparison of its own, so the queue's enables follow two registers */
     val due = RegNext(head.valid && !head.ready && reached) init False
   }
   // When `sums` shows the head's last column: the chains add it a clock later (at the beat) and hold the head's

@@ -30,6 +30,22 @@ case class TrackedPixel(c: FrameConfig) extends Bundle {
   /** the beat that closes the last processed frame (one beat per processed frame; its `keyframe` may already be the
     * next frame's) */
   val end = FrameEndMark()
+
+  /** where the pixel is in the stream, without its value */
+  def place: PixelPlace = {
+    val p = PixelPlace(c)
+    p.assignSomeByName(this)
+    p
+  }
+}
+
+/** A tracked pixel's place in the stream without its value: what a block that reads the pixel's column (the value
+  * is in it) delays beside its own sums. */
+case class PixelPlace(c: FrameConfig) extends Bundle {
+  val x, y = c.coord()
+  val active = Bool()
+  val keyframe = Bool()
+  val end = FrameEndMark()
 }
 
 case class LineColumn(f: FrameConfig, rows: Int) extends Bundle {
