@@ -442,8 +442,9 @@ object MatcherConfig {
   /** clocks from a read's address to its data: the address register (each lane's own), the RAM, its output register */
   val readLatency: Int = 3
 
-  /** clocks from a read's address to its cross word: a plain register behind the RAM's output register (the
-    * comparisons, the rescan and the sweep that read it lie apart from the RAM) */
+  /** clocks from a read's address to its cross word: a plain register behind the RAM's output register (the rescan
+    * and the sweep that read it lie apart from the RAM; the scan's comparison reads the RAM's register, a clock
+    * before) */
   val crossLatency: Int = readLatency + 1
 
   /** clocks from a scan's last accumulation to its decision: the best entry's group into the scan's address, the

@@ -755,8 +755,8 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
       }
       // Cat of a sequence puts its first element in the low bits: slice 0 there, as in the table's words
       val picked = stepApart(Cat(slices.map(sl => sl.table.pickEach(sl.words, sl.parts))))
-      // a register per point, enabled by its point's copy of `advance`: each lies beside its point's multipliers,
-      // which lie apart across the chip
+      // a register per point, enabled by its point's operands' copy of `advance`: each lies beside its point's
+      // multipliers, which lie apart across the chip
       val pointWidth = 2 * fieldWidth
       val points = (0 until pointsPerGroup).map(i => stepAt(s"point$i")(picked(i * pointWidth, pointWidth bits)))
       private def field(k: Int): Bits = points(k / 2)((k % 2) * fieldWidth, fieldWidth bits)

@@ -67,14 +67,15 @@ class OrientationUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, c
     def validCopy(): Bool = keptApart(RegNext(validAhead) init False)
     // the beat's pixel beside its sums, a clock before (`pixelAhead`) and two (`pixelBefore`; the head is compared
     // two clocks ahead with its position's copy, `positionEarly`)
-    require(latency >= 4, "the head's comparisons branch from the pixel's delay three clocks before the beat")
+    require(latency >= 4, "the head's comparisons branch from the pixel's delay two clocks before `pixel`")
     val pixelEarlier = delayApart(pixelFirst, latency - 4)
     val pixelBefore = keptApart(RegNext(pixelEarlier))
     val pixelAhead = keptApart(RegNext(pixelBefore))
     val pixel = RegNext(pixelAhead)
 
     /** the position of `pixelBefore` beside the head's comparisons: its column in a copy of its own (kept apart; the
-      * register that serves the row's start lies apart from them), its row `pixelBefore`'s (nothing else reads it) */
+      * register that serves the row's start lies apart from them), its row `pixelBefore`'s (the beat's delay carries
+      * the row on to nothing that reads it) */
     val positionEarly = new Area {
       val x = keptApart(RegNext(pixelEarlier.x))
       val y = pixelBefore.y
