@@ -163,6 +163,35 @@ object Arith {
     (0 until upper).foldRight(h.msb)((k, lower) => h(2 * k) || (h(2 * k + 1) && lower))
   }
 
+  /** A score's level (`orb.model.BudgetModel.levelOf`: its leading one's position above the `fb` bits after it)
+    * in steps, each for a register after it. First: the leading one's position, `log2Up(score width)` bits. */
+  def leadOf(score: UInt): UInt = {
+
+    /** (any bit set, the highest set bit's position) of `bits`, as a balanced tree of halves */
+    def highest(bits: Seq[Bool]): (Bool, UInt) =
+      if (bits.size == 1) (bits.head, U(0, 0 bits))
+      else {
+        val half = 1 << (log2Up(bits.size) - 1)
+        val (loAny, lo) = highest(bits.take(half))
+        val (hiAny, hi) = highest(bits.drop(half))
+        val width = log2Up(bits.size)
+        (loAny || hiAny, Mux(hiAny, True ## hi.resize(width - 1), False ## lo.resize(width - 1)).asUInt)
+      }
+    highest(score.asBools.toSeq)._2.resize(log2Up(score.getWidth))
+  }
+
+  /** Then the `fb` bits after the leading one, coarsely: the score shifted down by the leading one's position
+    * without its last two bits (a shift by a multiple of 4), `fb + 3` bits kept. */
+  def afterLeadCoarse(score: UInt, lead: UInt, fb: Int): UInt = {
+    val byFours = lead(lead.high downto 2) @@ U(0, 2 bits)
+    ((score @@ U(0, fb bits)) >> byFours).resize(fb + 3)
+  }
+
+  /** Last: the rest of the shift (the position's last two bits), then the level: the position and the bits. */
+  def rankFrom(coarse: UInt, lead: UInt, fb: Int, width: Int): UInt =
+    if (fb == 0) lead.resize(width)
+    else (lead @@ (coarse >> lead(1 downto 0)).resize(fb)).resize(width)
+
   /** Arithmetic shift right (floor), written as a slice so that the Verilog has no width-changing shift. */
   def floorShift(v: SInt, n: Int): SInt = if (n == 0) v else v(v.high downto n)
   def floorShift(v: UInt, n: Int): UInt = if (n == 0) v else v(v.high downto n)

@@ -456,9 +456,18 @@ object MatcherConfig {
     * unless read into a register of its lane, the lanes ORed into a register, then the push's register) */
   val pushLatency: Int = crossLatency + 3
 
-  /** Parts of the score comparisons of the rescan and the replacement, side by side (`Arith.comparedInParts`): a
+  /** Parts of the rank comparisons of the rescan and the replacement, side by side (`Arith.comparedInParts`): a
     * part's equality one LUT level less than in halves. */
-  val scoreParts: Int = 3
+  val rankParts: Int = 3
+
+  /** Bits of a score's rank after its leading one. The store keeps the strongest features by rank
+    * (`orb.model.MatcherModel.rank`), the score's level as the budget forms it (`BudgetModel.levelOf`) with finer
+    * steps: it orders as the score does but for ties within about 2^-8 of each other, and the replacement's and the
+    * rescan's registers and comparisons hold half the score's bits. */
+  val rankFracBits: Int = 8
+
+  /** the rank's bits: the leading one's position above `rankFracBits` */
+  def rankWidth(h: HarrisConfig): Int = log2Up(h.scoreWidth << rankFracBits)
 
   /** Parts of a copy of the live descriptor, each loaded by its own copy of the idle flag. */
   val liveDescriptorParts: Int = 8

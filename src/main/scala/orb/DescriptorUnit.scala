@@ -177,6 +177,9 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
   /** An oriented corner at the queue's head, with its bin and without its moments, which only the bin needed. */
   case class ReadyCorner() extends Bundle {
     val corner = CornerHw(f, h)
+
+    /** the score's rank (`FeatureHw.rank`) */
+    val rank = UInt(MatcherConfig.rankWidth(h) bits)
     val bin = UInt(d.binWidth bits)
     val startRow = f.rowTag()
     val frameTag = f.frameTag()
@@ -296,6 +299,14 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
     val lookedUp = RegNext(lookupCosSin(indexedBin))
     val narrowed = RegNext(narrowCosSin(lookedUp))
     val rotation = RegNext(rotationOf(narrowed))
+    // the score's rank in three registered steps (`Arith.leadOf`), as the rotation's lookups, while the search holds
+    // its result
+    val score = o.item.corner.score
+    val rankBits = MatcherConfig.rankFracBits
+    val lead = RegNext(Arith.leadOf(score))
+    val coarse = RegNext(Arith.afterLeadCoarse(score, lead, rankBits))
+    val rank = RegNext(Arith.rankFrom(coarse, RegNext(lead), rankBits, MatcherConfig.rankWidth(h)))
+    require(DescriptorUnit.rotationLatency >= 3, "the rank is ready when the rotation is")
     val head = Stream(PreparedCorner())
     // the result held (and not taken) in each of the last `rotationLatency` clocks: the registers hold its (held
     // in the last clock, the search still holds it). The clocks before the last ANDed a clock ahead into a register.
@@ -304,6 +315,7 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
     head.valid := waited.head && waitedBefore
     head.item.assignSomeByName(o.item)
     head.item.bin := bin
+    head.item.rank := rank
     head.rotation := rotation
     o.ready := head.fire
 
@@ -1214,6 +1226,7 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
   output.y := oldest(_.corner.corner.y)
   output.bin := oldest(_.corner.bin)
   output.score := oldest(_.corner.corner.score)
+  output.rank := oldest(_.corner.rank)
   output.keyframe := Mux(finished, oldest(_.corner.keyframe), dispatch.c.end.info.keyframe)
   output.descriptor := oldest(_.descriptor)
   engine.handOn(output.ready)
@@ -1221,7 +1234,7 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
 
   /** The features leave through an output register whose valid, whose readiness to the engine and whose load enables
     * are all registers, so the matcher's readiness does not reach the engine's state or the 256-bit payload through
-    * logic. The position, score and tags load in the clock a feature or a frame's end leaves (`loadNow`); the
+    * logic. The position, score, rank and tags load in the clock a feature or a frame's end leaves (`loadNow`); the
     * descriptor a clock later, in parts (each by its own copy of `!full` from the clock before: a register straight
     * from a register, so no decision drives the wires to the parts), from the slot its copy of the oldest slot's tag
     * names: the copies follow the tag a clock late (`DescriptorEngine.leftLast`) and a finished slot's descriptor
@@ -1248,6 +1261,7 @@ class DescriptorUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
       payload.y := output.y
       payload.bin := output.bin
       payload.score := output.score
+      payload.rank := output.rank
       payload.keyframe := output.keyframe
       payload.end := output.end
     }

@@ -67,34 +67,6 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
     val slot = UInt(slotWidth bits)
   }
 
-  /** The leading one's position of a score (`BudgetModel.levelOf`, first step). */
-  def leadOf(score: UInt): UInt = {
-
-    /** (any bit set, the highest set bit's position) of `bits`, as a balanced tree of halves */
-    def highest(bits: Seq[Bool]): (Bool, UInt) =
-      if (bits.size == 1) (bits.head, U(0, 0 bits))
-      else {
-        val half = 1 << (log2Up(bits.size) - 1)
-        val (loAny, lo) = highest(bits.take(half))
-        val (hiAny, hi) = highest(bits.drop(half))
-        val width = log2Up(bits.size)
-        (loAny || hiAny, Mux(hiAny, True ## hi.resize(width - 1), False ## lo.resize(width - 1)).asUInt)
-      }
-    highest(score.asBools.toSeq)._2.resize(log2Up(h.scoreWidth))
-  }
-
-  /** The `fb` bits after a score's leading one (`BudgetModel.levelOf`), first step: the score shifted down by the
-    * leading one's position without its last two bits (a shift by a multiple of 4), `fb + 3` bits kept. */
-  def afterLeadCoarse(score: UInt, lead: UInt, fb: Int): UInt = {
-    val byFours = lead(lead.high downto 2) @@ U(0, 2 bits)
-    ((score @@ U(0, fb bits)) >> byFours).resize(fb + 3)
-  }
-
-  /** Second step: the rest of the shift (the position's last two bits), then the level: the position and the bits. */
-  def rankFrom(coarse: UInt, lead: UInt, fb: Int, width: Int): UInt =
-    if (fb == 0) lead.resize(width)
-    else (lead @@ (coarse >> lead(1 downto 0)).resize(fb)).resize(width)
-
   /** Corners kept per cell in this frame's line length: `OrbConfig.perCellFor`, from its steps, into a register; the
     * width registered first on the budget's side (it changes only between frames, and comes from the frame tracker,
     * apart from the lists), then its comparisons with the steps (the choice among them a clock later: the count
@@ -152,12 +124,12 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
       * rest of the shift) */
     val ranked = new Area {
       val first = io.corners.stage()
-      val lead = RegNext(leadOf(io.corners.score))
+      val lead = RegNext(Arith.leadOf(io.corners.score))
       val second = first.stage()
       val secondLead = RegNext(lead)
-      val coarse = RegNext(afterLeadCoarse(first.score, lead, b.rankFracBits))
+      val coarse = RegNext(Arith.afterLeadCoarse(first.score, lead, b.rankFracBits))
       val corner = second.stage()
-      val rank = RegNext(rankFrom(coarse, secondLead, b.rankFracBits, rankWidth))
+      val rank = RegNext(Arith.rankFrom(coarse, secondLead, b.rankFracBits, rankWidth))
     }
 
     /** the corner a clock on, its rank with a copy per list (kept apart): each list compares it with its places */

@@ -6,15 +6,14 @@ import orb.Pipes.keptApart
 
 /** Keyframe store and brute-force Hamming matcher, as `orb.model.MatcherModel`.
   *
-  * Input: the feature stream with its frame-end items. A frame whose items carry `keyframe` replaces the store with
-  * its strongest `storeCapacity` features (appended one per clock; once full, a stronger feature replaces the
-  * weakest entry and a rescan of the scores, P per clock, finds the next weakest). Every other frame's feature is
-  * compared with the whole
-  * store, `comparators` entries per clock: lane l holds entries l, l + P, l + 2P, ... in its own RAM, so a scan
-  * reads one group of P entries per clock. Each lane computes the Hamming distance (xor, popcount tree pipelined
-  * every `popcountLevelsPerStage` adder levels); the lanes are merged into best (first on ties) and second best,
-  * consecutive groups merged in pairs, and the pairs accumulated. The feature is held (input not ready) for
-  * `MatcherConfig.clocksPerFeature` clocks.
+  * Input: the feature stream with its frame-end items. A frame whose items carry `keyframe` replaces the store with its
+  * strongest `storeCapacity` features by the rank of their scores (`FeatureHw.rank`; appended one per clock; once full,
+  * a stronger feature replaces the weakest entry and a rescan of the ranks, P per clock, finds the next weakest). Every
+  * other frame's feature is compared with the whole store, `comparators` entries per clock: lane l holds entries l,
+  * l + P, l + 2P, ... in its own RAM, so a scan reads one group of P entries per clock. Each lane computes the Hamming
+  * distance (xor, popcount tree pipelined every `popcountLevelsPerStage` adder levels); the lanes are merged into best
+  * (first on ties) and second best, consecutive groups merged in pairs, and the pairs accumulated. The feature is held
+  * (input not ready) for `MatcherConfig.clocksPerFeature` clocks.
   *
   * Cross-check (mutual nearest neighbours, OpenCV's BFMatcher crossCheck): every entry keeps the best live
   * feature of the frame so far (distance, position, and whether that live feature's own best is this entry). A
@@ -46,6 +45,7 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
   }
   val P = m.comparators
   val cw = f.coordWidth
+  val rankWidth = MatcherConfig.rankWidth(h)
   val groupWidth = log2Up(m.groups max 2)
   val countWidth = log2Up(m.storeCapacity + 1)
 
@@ -69,8 +69,8 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
   def groupOf(index: UInt, width: Int): UInt = (if (P == 1) index else index(index.high downto log2Up(P))).resize(width)
   def laneIs(lane: UInt, l: Int): Bool = if (P == 1) True else lane === l
   require(
-    h.scoreWidth <= distanceWidth + 1 + 2 * cw,
-    "a score must fit the cross word it borrows while a keyframe loads"
+    rankWidth <= distanceWidth + 1 + 2 * cw,
+    "a rank must fit the cross word it borrows while a keyframe loads"
   )
   def clearedCross: Cross = { val c = Cross(); c.distance := none; c.mutual := False; c.liveX := 0; c.liveY := 0; c }
 
@@ -170,19 +170,19 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
     for (l <- 0 until P) yield new Area {
       // the lane's entries in parts, each with registers of its own (`StorePart`)
       val store = Seq.fill(MatcherConfig.storeParts)(new StorePart)
-      // While a keyframe loads, an entry's cross state is not needed: its word holds the entry's score instead
-      // (what the replacement compares), and the keyframe's end clears them all (no RAM for the scores).
+      // While a keyframe loads, an entry's cross state is not needed: its word holds the entry's rank instead
+      // (what the replacement compares), and the keyframe's end clears them all (no RAM for the ranks).
       val cross = Mem(Cross(), m.groups)
     }
 
-  // The weakest entry of a full store (lowest score, the first on ties): the one a stronger feature replaces.
+  // The weakest entry of a full store (lowest rank, the first on ties): the one a stronger feature replaces.
   val weakest = new Area {
-    val score = Reg(UInt(h.scoreWidth bits)) init 0
+    val rank = Reg(UInt(rankWidth bits)) init 0
     val index = Reg(UInt(countWidth bits)) init 0
   }
 
   // Keyframe features: appended while there is room (keeping track of the weakest), then each one stronger than
-  // the weakest replaces it, after which a rescan of the scores finds the new weakest. Every feature beyond the
+  // the weakest replaces it, after which a rescan of the ranks finds the new weakest. Every feature beyond the
   // capacity, kept or not, costs one: counted as overflow.
   val load = new Area {
     val keyFeature = take && kind.keyFeature
@@ -202,22 +202,25 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
 
     /** a keyframe feature met the full store in the last clock: it replaces the weakest entry if it is stronger,
       * compared in the clock of the take (into registers, every clock) and decided now from registers: no
-      * comparison between the handshake or the scores and the store's enables. The input still holds it (the
+      * comparison between the handshake or the ranks and the store's enables. The input still holds it (the
       * input's contract), and the weakest has not changed since (it changes a clock after an append, or at a
       * rescan's end, both at least a clock before a take). */
     val metFull = RegNext(meetsFull) init False
-    // The offered score copied every clock beside the comparisons: at a take it holds the taken item's (offered
+    // The offered rank copied every clock beside the comparisons: at a take it holds the taken item's (offered
     // in the clock before, `waiting`, and unchanged since), so no comparison starts from the sender's register.
-    val offeredScore = RegNext(item.score)
-    // compared in parts side by side into registers, combined after them (no carry through the whole score)
+    val offeredRank = RegNext(item.rank)
+    // compared in parts side by side into registers, combined after them (no carry through the whole rank)
     val strongerParts =
-      RegNext(Arith.comparedInParts(offeredScore, weakest.score, orEqual = false, MatcherConfig.scoreParts))
+      RegNext(Arith.comparedInParts(offeredRank, weakest.rank, orEqual = false, MatcherConfig.rankParts))
     val stronger = Arith.combineParts(strongerParts)
     val replace = metFull && stronger
-    // the weakest entry's place whenever a feature met the full store (no append then: items are two clocks apart),
-    // written only if it replaces: the comparison reaches the enables, not the address
-    val index = Mux(metFull, weakest.index, storedNow)
-    val addr = groupOf(index, groupWidth)
+    // The weakest entry's place whenever a feature met the full store (no append then: items are two clocks apart),
+    // written only if it replaces: the comparison reaches the enables, not the address. Both places are registers
+    // formed a clock ahead, so the choice is the only logic before the parts' copies: the count does not change in
+    // the clock before a take, the kind is its register's next value, and the weakest as `weakestLanes` below.
+    val appendAddr = RegNext(groupOf(Mux(kind.emptiesStore.getAheadValue(), U(0, countWidth bits), stored), groupWidth))
+    val replaceAddr = RegNext(groupOf(weakest.index, groupWidth))
+    val addr = Mux(metFull, replaceAddr, appendAddr)
     // Each lane's write decided from registers of the lanes the count and the weakest name, a clock behind them:
     // the count changes only as a feature is taken (items at least two clocks apart), the weakest at the latest as
     // a take's clock begins, and a replacement is decided a clock after its take; so no index is chosen and
@@ -246,29 +249,29 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
       stored := Mux(kind.emptiesStore, U(1, countWidth bits), storedPlusOne)
       full := Mux(kind.emptiesStore, Bool(m.storeCapacity == 1), almostFull)
     }
-    // an appended feature that becomes the weakest: compared as it is taken (its score below the weakest's, in parts
+    // an appended feature that becomes the weakest: compared as it is taken (its rank below the weakest's, in parts
     // into registers, as `strongerParts`), decided and written a clock later (the next item is taken two clocks
     // after at the earliest: the input's contract), so no carry chain or handshake drives the weakest entry's enables
     val appended = RegNext(append) init False
     val appendedToEmpty = RegNext(storedZero)
     val weakerParts =
-      RegNext(Arith.comparedInParts(weakest.score, offeredScore, orEqual = false, MatcherConfig.scoreParts))
+      RegNext(Arith.comparedInParts(weakest.rank, offeredRank, orEqual = false, MatcherConfig.rankParts))
     val becomesWeakest = appended && (appendedToEmpty || Arith.combineParts(weakerParts))
-    val appendedScore = RegNext(item.score)
+    val appendedRank = RegNext(item.rank)
     val appendedIndex = RegNext(storedNow)
     when(becomesWeakest) {
-      weakest.score := appendedScore
+      weakest.rank := appendedRank
       weakest.index := appendedIndex
     }
   }
 
-  // After a replacement: all scores read, P per clock, and the lowest (first on ties) becomes the weakest.
+  // After a replacement: all ranks read, P per clock, and the lowest (first on ties) becomes the weakest.
   val rescan = new Area {
     def busy: Bool = activity === Activity.RESCAN
     val group = Reg(UInt(groupWidth + 1 bits)) init 0
     val issuing = busy && group < m.groups
     when(issuing) { group := group + 1 }
-    // a clock after the replacement: its score reaches the RAM two clocks after it, before the first read does
+    // a clock after the replacement: its rank reaches the RAM two clocks after it, before the first read does
     val starting = RegNext(load.replace) init False
     when(starting) {
       activity := Activity.RESCAN
@@ -377,7 +380,7 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
     val drainingNext = (reading +: drains.init).reduce(_ || _)
   }
 
-  // Frame end of a keyframe: the scores in the cross words are replaced by cleared cross state, a group per clock.
+  // Frame end of a keyframe: the ranks in the cross words are replaced by cleared cross state, a group per clock.
   val keyEnd = new Area {
     def busy: Bool = activity === Activity.KEY_END
     val group = Reg(UInt(groupWidth + 1 bits)) init 0
@@ -396,8 +399,12 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
     }
 
     /** the clears a clock behind the activity, a flag per lane (kept apart): no activity flag reaches a lane's write
-      * data. The next item's first write (a keyframe feature's score word) still comes after the last clear. */
+      * data. The next item's first write (a keyframe feature's rank word) still comes after the last clear. */
     val clears = Seq.fill(P)(keptApart(RegNext(busy) init False))
+
+    /** a second flag per lane for the write data (kept apart): one flag would select the address, the enable and the
+      * 32 bits of data, which lie beside the lane's RAM */
+    val clearsData = Seq.fill(P)(keptApart(RegNext(busy) init False))
     val clearGroup = RegNext(group.resize(groupWidth))
   }
 
@@ -423,32 +430,31 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
       val cross = RegNext(crossRead)
     }
 
-  // The rescan's data path: the scores read through the cross port, the lowest (first on ties) of them all.
+  // The rescan's data path: the ranks read through the cross port, the lowest (first on ties) of them all.
   val rescanMin = new Area {
     // Registered at every step: the RAM data (its output register, then a register beside the comparisons: the
     // RAMs are far apart), each level of the group's lowest, the running lowest; no path holds two of them.
-    val scores = reads.map(r => RegNext(r.cross.asBits.resize(h.scoreWidth).asUInt))
+    val ranks = reads.map(r => RegNext(r.cross.asBits.resize(rankWidth).asUInt))
     val read = Delay(rescan.issuing, crossLatency + 1, init = False)
     val base = Delay(rescan.group.resize(countWidth) |<< log2Up(P), crossLatency + 1)
     val first = Delay(rescan.issuing && rescan.group === 0, crossLatency + 1, init = False)
-    // the group's lowest score, the first lane on ties, in three registered steps: every pair of lanes compared side
-    // by side, in parts (no carry through a whole score in one clock), the parts combined, then the lane below every
-    // lane before it and not above any after it picked and its score selected in one step (an AND of registered
-    // comparisons before the selection: no comparison waits for a choice, no choice for a comparison, and the
-    // scores wait two clocks, not three). Only the pairs of a lane with an earlier one are compared: the picks need
-    // no other.
-    val values = scores.map(s => Delay(s, 2))
+    // the group's lowest rank, the first lane on ties, in four registered steps: every pair of lanes compared side
+    // by side, in parts (no carry through a whole rank in one clock), the parts combined, the lane below every lane
+    // before it and not above any after it picked (an AND of registered comparisons), then its rank selected: no
+    // comparison waits for a choice, no choice for a comparison or a pick. Only the pairs of a lane with an earlier
+    // one are compared: the picks need no other.
+    val values = ranks.map(s => Delay(s, 3))
     def below(i: Int, j: Int): Bool = {
       require(j < i)
-      val parts = Arith.comparedInParts(scores(j), scores(i), orEqual = false, MatcherConfig.scoreParts)
+      val parts = Arith.comparedInParts(ranks(j), ranks(i), orEqual = false, MatcherConfig.rankParts)
       RegNext(Arith.combineParts(RegNext(parts)))
     }
     val belowEarlier = (0 until P).map(i => (0 until i).map(j => below(i, j)))
-    val picks = Vec((0 until P).map { i =>
+    val picks = RegNext(Vec((0 until P).map { i =>
       ((0 until i).map(j => belowEarlier(i)(j)) ++ (i + 1 until P).map(j => !belowEarlier(j)(i))).foldLeft(True)(_ && _)
-    })
+    }))
     val low = RegNext(MuxOH.or(picks, values))
-    val levels = 3
+    val levels = 4
     val index = Delay(base, levels) | RegNext(OHToUInt(picks)).resize(countWidth)
     val valid = Delay(read, levels, init = False)
     val firstD = Delay(first, levels, init = False)
@@ -479,20 +485,20 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
       val valid = RegNext(pairing.valid) init False
       val first = RegNext(pairing.first) init False
       val last = RegNext(pairing.last) init False
-      val score = RegNext(Mux(pairing.takeB, pairing.b, pairing.a))
+      val rank = RegNext(Mux(pairing.takeB, pairing.b, pairing.a))
       val index = RegNext(Mux(pairing.takeB, pairing.bIndex, pairing.aIndex))
     }
-    val accScore = Reg(UInt(h.scoreWidth bits))
+    val accRank = Reg(UInt(rankWidth bits))
     val accIndex = Reg(UInt(countWidth bits))
     val choose = new Area {
       val valid = RegNext(candidate.valid) init False
       val last = RegNext(candidate.last) init False
-      val takes = RegNext(candidate.first || candidate.score < accScore)
-      val score = RegNext(candidate.score)
+      val takes = RegNext(candidate.first || candidate.rank < accRank)
+      val rank = RegNext(candidate.rank)
       val index = RegNext(candidate.index)
     }
     when(choose.valid && choose.takes) {
-      accScore := choose.score
+      accRank := choose.rank
       accIndex := choose.index
     }
     // busy until the new weakest is in place, so that the next keyframe feature compares against it: a clock after
@@ -500,7 +506,7 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
     val last = RegNext(choose.last) init False
     endsOn(last)
     when(last) {
-      weakest.score := accScore
+      weakest.rank := accRank
       weakest.index := accIndex
     }
   }
@@ -534,8 +540,12 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
     // two: the parts are settled by then). From two clocks after a scan until the next the parts load every clock,
     // so a keyframe feature's descriptor is in them in the clock after its take (an append's write) and the next (a
     // replacement's): a keyframe feature is taken at least three clocks after a live frame's end item.
+    // The copy's position (what its lanes write of the live feature: the cross state's, a keyframe entry's) loads
+    // by the copy's flag, a clock earlier than the parts: the input holds it a clock after its take, so the copy
+    // holds the taken feature's from two clocks after the take (a replacement's write, a scan's first take-over
+    // later still) and a keyframe feature's in the clock after its take.
     require(readLatency >= 2, "the live descriptor's copies settle two clocks after a scan's take")
-    val liveCopies = (0 until (P + MatcherConfig.lanesPerLiveCopy - 1) / MatcherConfig.lanesPerLiveCopy).map { _ =>
+    class LiveCopy extends Area {
       val partBits = item.descriptor.getWidth / MatcherConfig.liveDescriptorParts
       val copyIdle = keptApart(RegNext(activity =/= Activity.SCAN) init True)
       val parts = (0 until MatcherConfig.liveDescriptorParts).map { i =>
@@ -546,11 +556,18 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
         }
         part
       }
-      Cat(parts)
+      val descriptor = Cat(parts)
+      val position = keptApart(Reg(Position()))
+      when(copyIdle) {
+        position.x := item.x
+        position.y := item.y
+      }
     }
+    val liveCopies = Seq.fill((P + MatcherConfig.lanesPerLiveCopy - 1) / MatcherConfig.lanesPerLiveCopy)(new LiveCopy)
+    def liveCopy(l: Int): LiveCopy = liveCopies(l / MatcherConfig.lanesPerLiveCopy)
     val results =
       for ((r, l) <- reads.zipWithIndex) yield new Area {
-        val liveDescriptor = liveCopies(l / MatcherConfig.lanesPerLiveCopy)
+        val liveDescriptor = liveCopy(l).descriptor
         val popcount = new MatcherConfig.Hamming(r.entry.descriptor, liveDescriptor, m)
         val count = popcount.distance
         val index = (group.resize(countWidth) |<< log2Up(P)) | U(l, countWidth bits)
@@ -560,7 +577,8 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
         val wins = valid && real && popcount.below(r.crossRead.distance)
         // A live feature nearer than the entry's best so far takes the entry over (mutual decided when its scan ends).
         val update = Cross(); update.distance := count; update.mutual := False
-        update.liveX := scan.live.x; update.liveY := scan.live.y
+        update.liveX := liveCopy(l).position.x
+        update.liveY := liveCopy(l).position.y
         val out = Lane()
         out.distance := Mux(real, count, U(none, distanceWidth bits))
         out.index := index
@@ -746,35 +764,35 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
   for ((lane, l) <- lanes.zipWithIndex) {
     val loadHere = load.writes(l)
     // the address and the write enable registered per part (`StorePart`: kept apart, so no one address register
-    // drives every RAM of the store, and the enable is not merged with its twin, the score word's decision below,
+    // drives every RAM of the store, and the enable is not merged with its twin, the rank word's decision below,
     // which drives the cross state's selection apart). The data are the live registers, the lane's copy of the
     // descriptor: they copy the input every clock of a keyframe (no scan runs then), and the input holds a
     // feature for a clock after its take, so a clock after the take (an append's write) and two clocks after (a
     // replacement's) they hold the feature taken
     val liveEntry = Entry()
-    liveEntry.x := scan.live.x
-    liveEntry.y := scan.live.y
-    liveEntry.descriptor := compare.liveCopies(l / MatcherConfig.lanesPerLiveCopy)
+    liveEntry.x := compare.liveCopy(l).position.x
+    liveEntry.y := compare.liveCopy(l).position.y
+    liveEntry.descriptor := compare.liveCopy(l).descriptor
     val liveBits = liveEntry.asBits.resize(MatcherConfig.storeParts * partWidth)
     for ((part, i) <- lane.store.zipWithIndex) {
       part.write(load.addr, liveBits(i * partWidth, partWidth bits), loadHere)
     }
-    // the score word a clock later than the entry, its decision registered before the selection below (the rescan
+    // the rank word a clock later than the entry, its decision registered before the selection below (the rescan
     // that reads it starts later still)
-    val scoreHere = keptApart(RegNext(loadHere) init False)
+    val rankHere = keptApart(RegNext(loadHere) init False)
     // a copy of it for the data (kept apart): one register would select the address, the enable and the 32 bits of
     // data, which lie beside the lane's RAM, far from the load's decision
-    val scoreHereData = keptApart(RegNext(loadHere) init False)
-    val scoreAddr = RegNext(load.addr)
-    val scoreWord = Cross()
-    scoreWord.assignFromBits(RegNext(item.score).asBits.resize(scoreWord.getBitsWidth))
+    val rankHereData = keptApart(RegNext(loadHere) init False)
+    val rankAddr = RegNext(load.addr)
+    val rankWord = Cross()
+    rankWord.assignFromBits(RegNext(item.rank).asBits.resize(rankWord.getBitsWidth))
     val c = compare.results(l)
     val markHere = decide.markLanes(l)
     // the lane a clear is for, decided with the read and delayed beside it (no lane comparison on the way)
     val clearHere = swept.lanes(l).clearHere
     val address = Mux(
-      scoreHere,
-      scoreAddr,
+      rankHere,
+      rankAddr,
       Mux(
         markHere,
         decide.markAddr,
@@ -783,11 +801,11 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
     )
     val data =
       Mux(
-        scoreHereData,
-        scoreWord,
-        Mux(clearHere || keyEnd.clears(l), clearedCross, Mux(markHere, decide.markValue, c.update))
+        rankHereData,
+        rankWord,
+        Mux(clearHere || keyEnd.clearsData(l), clearedCross, Mux(markHere, decide.markValue, c.update))
       )
-    val enable = scoreHere || markHere || clearHere || keyEnd.clears(l) || c.writeUpdate
+    val enable = rankHere || markHere || clearHere || keyEnd.clears(l) || c.writeUpdate
     lane.cross.write(RegNext(address), RegNext(data), RegNext(enable) init False)
   }
 
@@ -796,7 +814,7 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
   // pointers and nothing waits for the readiness's own logic; and only for an item offered in the last clock and not
   // taken then (`waiting`: offered now, its kind registered by then).
   // A keyframe feature that meets a full store holds the next item two clocks, whether it replaces (the rescan
-  // starts then) or not: no score comparison in the readiness's logic.
+  // starts then) or not: no rank comparison in the readiness's logic.
   // The activity's next value is read as if nothing were taken now: the readiness in the clock after a take is
   // never used (nothing is offered then: `waiting` is low), so no take (a handshake's AND and the kind's choice of a
   // new activity) lies before the readiness's register; nor does a full store's meeting (`meetsFull`), for the same

@@ -96,6 +96,9 @@ case class FeatureHw(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig) ex
   val x, y = f.coord()
   val bin = UInt(d.binWidth bits)
   val score = UInt(h.scoreWidth bits)
+
+  /** the score's rank (`orb.model.MatcherModel.rank`), what the matcher reads of it */
+  val rank = UInt(MatcherConfig.rankWidth(h) bits)
   val descriptor = Bits(OrbDescriptorConfig.descriptorBits bits)
 
   /** the feature's frame is a keyframe (for a frame's end: that frame's, as `end.info.keyframe`) */

@@ -19,6 +19,23 @@ class MatcherModelSpec extends AnyFunSuite {
     // 4 (score 7) replaces 1, the first of the two weakest (5); 5 (score 5) is not stronger; 6 (score 6) replaces 3
     assert(s.features.map(_.x) == Seq(4, 2, 6) && s.overflow == 3)
   }
+  test("a score's rank: its leading one's place above the 8 bits after it; it orders as the score does") {
+    import MatcherModel.rank
+    assert(rank(256) == (8 << 8) && rank(511) == (8 << 8 | 255) && rank(512) == (9 << 8) && rank(513) == (9 << 8))
+    val top = (1L << HarrisConfig().scoreWidth) - 1
+    assert(rank(top) == ((HarrisConfig().scoreWidth - 1) << 8 | 255))
+    assert(rank(top) < (1 << MatcherConfig.rankWidth(HarrisConfig())), "the rank fits its width")
+    val rng = new scala.util.Random(7)
+    val scores = Seq.fill(2000)(rng.nextLong(top + 1)).sorted
+    assert(scores.zip(scores.tail).forall { case (a, b) => rank(a) <= rank(b) }, "monotonic")
+    // equal ranks only within 2^-8 of each other: 100,100 and 100,300 tie, 100,100 and 100,400 do not
+    assert(rank(100100) == rank(100300) && rank(100100) < rank(100400))
+  }
+  test("the store compares ranks: scores that tie in rank keep the earliest") {
+    // 1 and 3 tie in rank (100,300 and 100,100): 4 replaces 1, the first of them, though 3 is weaker by score
+    val s = MatcherModel.store(Seq(feat(1, 0, 100300), feat(2, 0, 900000), feat(3, 0, 100100), feat(4, 0, 200000)), cfg)
+    assert(s.features.map(_.x) == Seq(4, 2, 3))
+  }
   test("best, first on ties; second equals best on a tie; threshold and ratio") {
     val s = MatcherModel.store(Seq(feat(1, 10), feat(2, 10), feat(3, 40)), cfg)
     assert(MatcherModel.nearest(feat(9, 12), s).contains((0, 2, 2)))

@@ -68,7 +68,7 @@ class MatcherSpec extends AnyFunSuite {
     sim.doSim(name, seed.toInt) { dut =>
       val r0 = rng(name)
       val in = dut.io.features
-      in.valid #= false; in.x #= 0; in.y #= 0; in.bin #= 0; in.score #= 0; in.descriptor #= 0
+      in.valid #= false; in.x #= 0; in.y #= 0; in.bin #= 0; in.score #= 0; in.rank #= 0; in.descriptor #= 0
       in.keyframe #= false; in.end.now #= false; in.end.info.ok #= true; in.end.info.keyframe #= false
       dut.io.params.hammingThreshold #= p.hammingThreshold
       dut.io.params.ratio #= p.ratio.getOrElse(0).toLong
@@ -100,7 +100,8 @@ class MatcherSpec extends AnyFunSuite {
         in.valid #= true
         item match {
           case Right(ft) =>
-            in.end.now #= false; in.x #= ft.x; in.y #= ft.y; in.bin #= ft.bin; in.score #= ft.score
+            in.end.now #= false; in.x #= ft.x; in.y #= ft.y; in.bin #= ft.bin; in.score #= ft.score;
+            in.rank #= MatcherModel.rank(ft.score)
             in.descriptor #= ft.descriptorBits
             in.keyframe #= keyFlags(i)
           case Left(e) =>
@@ -254,13 +255,21 @@ class MatcherSpec extends AnyFunSuite {
     assert(model.overflow == 24 + 4 && model.correspondences.size > 10)
     check("overflow, threshold only", stream, plain)
   }
-  test("replacement picks the weakest entry, the first of equal scores, wherever it lies in a group") {
+  test("replacement picks the weakest entry, the first of equal ranks, wherever it lies in a group") {
     val r = rng("replace")
     def desc = Vector.fill(32)(r.nextInt(256))
-    // Scores: four tied weakest entries, in lanes 0..3 of one group, then in the last group; then stronger ones.
-    for ((weakAt, name) <- Seq((0 until 4, "group 0"), (12 until 16, "last group"), (Seq(2, 7, 9, 13), "spread"))) {
-      val key = (0 until 16).map(i => Feature(i, 0, 0, if (weakAt.contains(i)) 1 else 10, desc)) ++
-        (16 until 19).map(i => Feature(i, 0, 0, 20, desc))
+    // Scores: four tied weakest entries, in lanes 0..3 of one group, then in the last group, then spread; then
+    // stronger ones.
+    // The last case: the weakest differ in score, not in rank (the later the weaker by score): the first goes.
+    val cases = Seq(
+      (0 until 4, "group 0", (_: Int) => 1L),
+      (12 until 16, "last group", (_: Int) => 1L),
+      (Seq(2, 7, 9, 13), "spread", (_: Int) => 1L),
+      (Seq(1, 5, 10, 14), "tied by rank", (i: Int) => 100300L - 10 * i)
+    )
+    for ((weakAt, name, weakScore) <- cases) {
+      val key = (0 until 16).map(i => Feature(i, 0, 0, if (weakAt.contains(i)) weakScore(i) else 150000, desc)) ++
+        (16 until 19).map(i => Feature(i, 0, 0, 200000, desc))
       val live = key.map(k => k.copy(x = k.x + 100, y = 5))
       val stream = key.map(Right(_)) ++ Seq(Left(FrameEnd(ok = true, keyframe = true))) ++ live.map(Right(_)) ++
         Seq(Left(FrameEnd(ok = true, keyframe = false)))

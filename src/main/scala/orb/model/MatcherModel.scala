@@ -29,16 +29,21 @@ final case class MatchParams(hammingThreshold: Int, ratio: Option[Int], crossChe
 object MatcherModel {
   final case class Store(features: IndexedSeq[Feature], overflow: Int)
 
-  /** The keyframe's features in arrival order until the store is full; then each feature with a higher score than
-    * the weakest entry (the lowest score, the first on ties) takes that entry's place. So the store ends with the
-    * strongest features of the whole keyframe, spread over the image rather than its first rows. */
+  /** A score's rank, what the store's replacement compares: its level (`BudgetModel.levelOf`) with
+    * `MatcherConfig.rankFracBits` bits after the leading one. It orders as the score does, but for scores within
+    * about 2^-8 of each other, which tie. */
+  def rank(score: Long): Int = BudgetModel.levelOf(score, MatcherConfig.rankFracBits)
+
+  /** The keyframe's features in arrival order until the store is full; then each feature of a higher rank (`rank`)
+    * than the weakest entry (the lowest rank, the first on ties) takes that entry's place. So the store ends with
+    * the strongest features of the whole keyframe, spread over the image rather than its first rows. */
   def store(keyframe: Seq[Feature], cfg: MatcherConfig): Store = {
     val kept = scala.collection.mutable.ArrayBuffer[Feature]()
     for (f <- keyframe) {
       if (kept.size < cfg.storeCapacity) kept += f
       else {
-        val weakest = kept.indices.minBy(i => (kept(i).score, i))
-        if (f.score > kept(weakest).score) kept(weakest) = f
+        val weakest = kept.indices.minBy(i => (rank(kept(i).score), i))
+        if (rank(f.score) > rank(kept(weakest).score)) kept(weakest) = f
       }
     }
     Store(kept.toIndexedSeq, (keyframe.size - cfg.storeCapacity) max 0)

@@ -194,6 +194,8 @@ object CoreSim {
         else {
           val bits = f.descriptor.toBigInt
           featureStream += Right(Feature(f.x.toInt, f.y.toInt, f.bin.toInt, f.score.toLong, Feature.descriptorOf(bits)))
+          if (f.rank.toInt != MatcherModel.rank(f.score.toLong))
+            holdBreaks += s"clock $cycles: feature (${f.x.toInt}, ${f.y.toInt}) has a rank not its score's"
         }
       }
       if (dut.io.frameEnds.valid.toBoolean)
