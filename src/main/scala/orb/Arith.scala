@@ -11,10 +11,31 @@ object Arith {
 
   /** v * k for a constant k >= 0, `width` bits out: the shifted copies of v for k's set bits, reduced by 3:2
     * compressors (a LUT level each) into one adder: a single carry chain however many bits k has set. */
-  def constMul(v: UInt, k: Int, width: Int): UInt = {
+  def constMul(v: UInt, k: Int, width: Int): UInt = carrySaveSum(constTerms(v, k, width), width)
+
+  /** `constMul` before its adder: the shifted copies reduced to at most two words whose sum (modulo 2^width) is
+    * v * k, for a carry chain a register later */
+  def constMulWords(v: UInt, k: Int, width: Int): Seq[UInt] = carrySaveWords(constTerms(v, k, width), width)
+
+  private def constTerms(v: UInt, k: Int, width: Int): Seq[UInt] = {
     require(k >= 0)
-    carrySaveSum((0 until 31).filter(b => ((k >> b) & 1) == 1).map(b => v.resize(width) |<< b), width)
+    (0 until 31).filter(b => ((k >> b) & 1) == 1).map(b => v.resize(width) |<< b)
   }
+
+  /** one 3:2 compressor over words (a LUT level): a sum word and a carry word with the same total; the carry word's
+    * free low bit holds the one when `plusOne` */
+  private def compress(a: UInt, b: UInt, c: UInt, plusOne: Boolean): Seq[UInt] = {
+    val sum = a ^ b ^ c
+    val carry = (((a & b) | (a & c) | (b & c)) |<< 1) | U(if (plusOne) 1 else 0, a.getWidth bits)
+    Seq(sum, carry)
+  }
+
+  /** `terms` reduced by 3:2 compressors to at most two words with the same sum modulo 2^width */
+  def carrySaveWords(terms: Seq[UInt], width: Int): Seq[UInt] =
+    terms.map(_.resize(width)) match {
+      case Seq(a, b, c, rest @ _*) => carrySaveWords(rest ++ compress(a, b, c, plusOne = false), width)
+      case few => few
+    }
 
   /** the sum of `terms` (plus one if `plusOne`) modulo 2^width: three terms into a sum and a carry word while more
     * than two remain, then one adder; the one takes the first carry word's free low bit */
@@ -24,10 +45,7 @@ object Arith {
       case Seq(a) => if (plusOne) a + 1 else a
       case Seq(a, b) if !plusOne => a + b
       case Seq(a, b) => carrySaveSum(Seq(a, b, U(1, width bits)), width)
-      case Seq(a, b, c, rest @ _*) =>
-        val sum = a ^ b ^ c
-        val carry = (((a & b) | (a & c) | (b & c)) |<< 1) | U(if (plusOne) 1 else 0, width bits)
-        carrySaveSum(rest ++ Seq(sum, carry), width)
+      case Seq(a, b, c, rest @ _*) => carrySaveSum(rest ++ compress(a, b, c, plusOne), width)
     }
 
   /** `carrySaveSum` of signed terms (two's complement modulo 2^width) */

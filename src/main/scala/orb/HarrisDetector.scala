@@ -27,9 +27,10 @@ case class HarrisStages(
     trace: Int = 14,
     multiply: Int = 16,
     kTrace: Int = 18,
-    response: Int = 19,
-    score: Int = 20,
-    suppressRead: Int = 21,
+    kTraceSum: Int = 19,
+    response: Int = 20,
+    score: Int = 21,
+    suppressRead: Int = 22,
     suppressParts: Int = 3,
     segmentCompare: Int = 3,
     segmentArc: Int = 4,
@@ -48,6 +49,7 @@ case class HarrisStages(
     trace,
     multiply,
     kTrace,
+    kTraceSum,
     response,
     score,
     suppressRead
@@ -294,11 +296,14 @@ class HarrisDetector(f: FrameConfig, h: HarrisConfig, columnRows: Int, stages: H
 
   val kTraceNode = at(stages.kTrace)
   val kTrace = new kTraceNode.Area {
-    // kNum * tr^2 by shifts and adds (kNum is a small constant), in one carry chain behind the multiplier
-    val KTR2 = insert(
-      floorShift(constMul(multiply.TR2, h.kNum, h.kTrace2Width + h.kShift), h.kShift).resize(h.kTrace2Width)
-    )
+    // kNum * tr^2 by shifts and adds (kNum is a small constant): the shifted copies carry-saved into two words here,
+    // their one carry chain a node later, from registers (a LUT level and a long carry chain do not fit one clock)
+    val KTR2_WORDS = insert(Vec(constMulWords(multiply.TR2, h.kNum, h.kTrace2Width + h.kShift)))
     val DET = insert(multiply.XXYY.intoSInt.resize(h.detWidth) - multiply.XY2.intoSInt.resize(h.detWidth))
+  }
+  val kTraceSumNode = at(stages.kTraceSum)
+  val kTraceSum = new kTraceSumNode.Area {
+    val KTR2 = insert(floorShift(kTrace.KTR2_WORDS.reduce(_ + _), h.kShift).resize(h.kTrace2Width))
   }
 
   // The response, then the score a node later: the response's sign (the end of its carry chain) and the segment
@@ -306,7 +311,7 @@ class HarrisDetector(f: FrameConfig, h: HarrisConfig, columnRows: Int, stages: H
   val responseNode = at(stages.response)
   val scoreNode = at(stages.score)
   val response = new responseNode.Area {
-    val R = insert(kTrace.DET.resize(h.responseWidth) - kTrace.KTR2.intoSInt.resize(h.responseWidth))
+    val R = insert(kTrace.DET.resize(h.responseWidth) - kTraceSum.KTR2.intoSInt.resize(h.responseWidth))
     // A pixel that fails the segment test scores 0: it can neither be a corner nor suppress a neighbour.
     val CANDIDATE = insert(segment.fold(True)(seg => !control.segmentTest || seg.PASSES))
     val shifted = floorShift(scoreNode(R), h.scoreShift)

@@ -402,9 +402,6 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
       * data. The next item's first write (a keyframe feature's rank word) still comes after the last clear. */
     val clears = Seq.fill(P)(keptApart(RegNext(busy) init False))
 
-    /** a second flag per lane for the write data (kept apart): one flag would select the address, the enable and the
-      * 32 bits of data, which lie beside the lane's RAM */
-    val clearsData = Seq.fill(P)(keptApart(RegNext(busy) init False))
     val clearGroup = RegNext(group.resize(groupWidth))
   }
 
@@ -761,53 +758,59 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
   // One write port per lane RAM: keyframe load, scan take-over, mutual mark, sweep clear (never two at once). The
   // writes are registered on their way to the RAMs (address, data and enable), so no decision reaches a RAM in the
   // clock it is made; nothing reads a word in the clock after it is decided (the rescan starts a clock late).
-  for ((lane, l) <- lanes.zipWithIndex) {
-    val loadHere = load.writes(l)
-    // the address and the write enable registered per part (`StorePart`: kept apart, so no one address register
-    // drives every RAM of the store, and the enable is not merged with its twin, the rank word's decision below,
-    // which drives the cross state's selection apart). The data are the live registers, the lane's copy of the
-    // descriptor: they copy the input every clock of a keyframe (no scan runs then), and the input holds a
-    // feature for a clock after its take, so a clock after the take (an append's write) and two clocks after (a
-    // replacement's) they hold the feature taken
-    val liveEntry = Entry()
-    liveEntry.x := compare.liveCopy(l).position.x
-    liveEntry.y := compare.liveCopy(l).position.y
-    liveEntry.descriptor := compare.liveCopy(l).descriptor
-    val liveBits = liveEntry.asBits.resize(MatcherConfig.storeParts * partWidth)
-    for ((part, i) <- lane.store.zipWithIndex) {
-      part.write(load.addr, liveBits(i * partWidth, partWidth bits), loadHere)
+  val writePorts =
+    for ((lane, l) <- lanes.zipWithIndex) yield new Area {
+      val loadHere = load.writes(l)
+      // the address and the write enable registered per part (`StorePart`: kept apart, so no one address register
+      // drives every RAM of the store, and the enable is not merged with its twin, the rank word's decision below,
+      // which drives the cross state's selection apart). The data are the live registers, the lane's copy of the
+      // descriptor: they copy the input every clock of a keyframe (no scan runs then), and the input holds a
+      // feature for a clock after its take, so a clock after the take (an append's write) and two clocks after (a
+      // replacement's) they hold the feature taken
+      val liveEntry = Entry()
+      liveEntry.x := compare.liveCopy(l).position.x
+      liveEntry.y := compare.liveCopy(l).position.y
+      liveEntry.descriptor := compare.liveCopy(l).descriptor
+      val liveBits = liveEntry.asBits.resize(MatcherConfig.storeParts * partWidth)
+      for ((part, i) <- lane.store.zipWithIndex) {
+        part.write(load.addr, liveBits(i * partWidth, partWidth bits), loadHere)
+      }
+      // the rank word a clock later than the entry, its decision registered before the selection below (the rescan
+      // that reads it starts later still)
+      val rankHere = keptApart(RegNext(loadHere) init False)
+      // a copy of it for the data (kept apart): one register would select the address, the enable and the 32 bits of
+      // data, which lie beside the lane's RAM, far from the load's decision
+      val rankHereData = keptApart(RegNext(loadHere) init False)
+      val rankAddr = RegNext(load.addr)
+      val rankWord = Cross()
+      rankWord.assignFromBits(RegNext(item.rank).asBits.resize(rankWord.getBitsWidth))
+      val c = compare.results(l)
+      val markHere = decide.markLanes(l)
+      // the lane a clear is for, decided with the read and delayed beside it (no lane comparison on the way)
+      val clearHere = swept.lanes(l).clearHere
+      val address = Mux(
+        rankHere,
+        rankAddr,
+        Mux(
+          markHere,
+          decide.markAddr,
+          Mux(clearHere, swept.addr, Mux(keyEnd.clears(l), keyEnd.clearGroup, compare.group))
+        )
+      )
+      // the clears' data (the sweep's and the key end's) from a flag of their own (kept apart: one flag would select
+      // the address, the enable and the 32 bits of data, which lie beside the lane's RAM), outermost in the selection,
+      // so that it is the data register's synchronous reset, not a level of LUTs before it (a rank word still comes
+      // first)
+      val clearsData = keptApart(RegNext(swept.lanes(l).hereBefore || keyEnd.busy) init False)
+      val data =
+        Mux(
+          clearsData && !rankHereData,
+          clearedCross,
+          Mux(rankHereData, rankWord, Mux(markHere, decide.markValue, c.update))
+        )
+      val enable = rankHere || markHere || clearHere || keyEnd.clears(l) || c.writeUpdate
+      lane.cross.write(RegNext(address), RegNext(data), RegNext(enable) init False)
     }
-    // the rank word a clock later than the entry, its decision registered before the selection below (the rescan
-    // that reads it starts later still)
-    val rankHere = keptApart(RegNext(loadHere) init False)
-    // a copy of it for the data (kept apart): one register would select the address, the enable and the 32 bits of
-    // data, which lie beside the lane's RAM, far from the load's decision
-    val rankHereData = keptApart(RegNext(loadHere) init False)
-    val rankAddr = RegNext(load.addr)
-    val rankWord = Cross()
-    rankWord.assignFromBits(RegNext(item.rank).asBits.resize(rankWord.getBitsWidth))
-    val c = compare.results(l)
-    val markHere = decide.markLanes(l)
-    // the lane a clear is for, decided with the read and delayed beside it (no lane comparison on the way)
-    val clearHere = swept.lanes(l).clearHere
-    val address = Mux(
-      rankHere,
-      rankAddr,
-      Mux(
-        markHere,
-        decide.markAddr,
-        Mux(clearHere, swept.addr, Mux(keyEnd.clears(l), keyEnd.clearGroup, compare.group))
-      )
-    )
-    val data =
-      Mux(
-        rankHereData,
-        rankWord,
-        Mux(clearHere || keyEnd.clearsData(l), clearedCross, Mux(markHere, decide.markValue, c.update))
-      )
-    val enable = rankHere || markHere || clearHere || keyEnd.clears(l) || c.writeUpdate
-    lane.cross.write(RegNext(address), RegNext(data), RegNext(enable) init False)
-  }
 
   // Ready for the next item when nothing is busy: a register, computed from the next values of the flags it depends
   // on (the FIFO's room from its register: see `paced`), so no decision hangs on the handshake or the FIFO's

@@ -102,11 +102,22 @@ class OrientationUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, c
     val clock = new RowClock(f, rowStart, frameStart)
   }
 
+  // A corner waits by its patch's last column (cx + R, cy + R modulo 2^cw, which the stream position is compared
+  // with), formed before the queue: no adder lies between the queue's RAM and the head's comparisons. Its own
+  // position is that less R again as it finishes.
+  case class Waiting() extends Bundle {
+    val lastX, lastY = UInt(cw bits)
+    val score = UInt(h.scoreWidth bits)
+  }
+
   // The budget's corners through a register of their own first (the budget lies apart from the queue's pointers):
   // a corner reaches the queue a clock later, rows before its last column. A frame start flushes it with the queue.
   val arriving = RegNext(io.corners.valid && !sums.frameStart) init False
-  val arrivingCorner = RegNext(io.corners.payload)
-  val queue = StreamFifo(CornerHw(f, h), d.cornerQueueDepth, forFMax = true)
+  val arrivingCorner = Reg(Waiting())
+  arrivingCorner.lastX := io.corners.payload.x + R
+  arrivingCorner.lastY := io.corners.payload.y + R
+  arrivingCorner.score := io.corners.payload.score
+  val queue = StreamFifo(Waiting(), d.cornerQueueDepth, forFMax = true)
   queue.io.push.valid := arriving
   queue.io.push.payload := arrivingCorner
   val queueDrop = arriving && !queue.io.push.ready && !sums.frameStart
@@ -161,13 +172,8 @@ class OrientationUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, c
     require(t.head.getWidth <= acc1Width && ts.head.getWidth <= acc2Width && tv.head.getWidth <= momentWidth)
   }
 
-  // The queue's head, through a register (a RAM's output is too slow to decide on in the same clock), with the
-  // position of its last column computed as it loads into the corner after the head.
-  case class Waiting() extends Bundle {
-    val corner = CornerHw(f, h)
-    val lastX, lastY = UInt(cw bits)
-  }
-  // The RAM's data into a plain register first (the RAM's output register: nothing else reads it), then a buffer
+  // The queue's head, through a register (a RAM's output is too slow to decide on in the same clock): the RAM's
+  // data into a plain register first (the RAM's output register: nothing else reads it), then a buffer
   // (its readiness through a register too: no decision on the head reaches the queue's RAM and pointers), then the
   // corner after the head, which takes one only when empty (its readiness a register: the head's decision reaches
   // no further back). The head passes a corner at most every other clock (corners' last columns come two pixels
@@ -175,14 +181,7 @@ class OrientationUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, c
   // head is in place again in the clock the head can next fire.
   val fromRam = queue.io.pop.m2sPipe(flush = sums.frameStart)
   val buffered = fromRam.s2mPipe(flush = sums.frameStart)
-  val withLast = buffered.map { c =>
-    val w = Waiting()
-    w.corner := c
-    w.lastX := c.x + R
-    w.lastY := c.y + R
-    w
-  }
-  val popped = Pipes.halfPipe(withLast, flush = sums.frameStart)
+  val popped = Pipes.halfPipe(buffered, flush = sums.frameStart)
   val head = popped.m2sPipe(flush = sums.frameStart)
   // The head against the stream position: compared two clocks ahead (the position `sums` shows in the next clock
   // but one) into registers, with the head and with the corner after it, and the comparisons of the one the head
@@ -242,7 +241,7 @@ class OrientationUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, c
   }
   val finishing = Flow(Finished())
   val emit = Delay(finishHere && sums.active, 2, init = False)
-  val finishedCorner = RegNextWhen(head.corner, finishHere)
+  val finished = RegNextWhen(head.payload, finishHere)
   val beatD = new Area {
     // The beat of the last column, in row cy + R: the corner's own row is R rows back.
     val rowTag = RegNext(beat.rowNow - R)
@@ -257,7 +256,9 @@ class OrientationUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, c
   // 7 rows earlier), and on a fault no corner finishes (it would be dropped).
   finishing.valid := emit || beatD.end.now
   val o = finishing.oriented
-  o.corner := finishedCorner
+  o.corner.x := finished.lastX - R
+  o.corner.y := finished.lastY - R
+  o.corner.score := finished.score
   o.m01 := chains.tv(0).resize(momentWidth)
   o.m10.assignDontCare()
   o.rowTag := beatD.rowTag
