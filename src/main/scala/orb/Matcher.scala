@@ -83,6 +83,23 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
   val waiting = Reg(Bool()) init False
   val take = Bool()
 
+  /** copies of the handshake's two registers (kept apart, set beside `ready` and `waiting` below) for one group of
+    * decisions at a take: each is then one LUT of registers (the copies' and the kind's), not a second level behind
+    * the take, whose one LUT drives the frame state and the input's readiness */
+  class Handshake extends Area {
+    val ready = keptApart(Reg(Bool()) init True)
+    val waiting = keptApart(Reg(Bool()) init False)
+    def take: Bool = ready && waiting
+  }
+
+  /** the keyframe features' decisions (the load), the live features' (the scan's start) and the frame ends' */
+  val takes = new Area {
+    val key = new Handshake
+    val live = new Handshake
+    val ends = new Handshake
+    def all: Seq[Handshake] = Seq(key, live, ends)
+  }
+
   // Frame state: the first item of a frame samples the parameters and, on a keyframe, empties the store.
   val frame = new Area {
     val first = Reg(Bool()) init True
@@ -185,7 +202,7 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
   // the weakest replaces it, after which a rescan of the ranks finds the new weakest. Every feature beyond the
   // capacity, kept or not, costs one: counted as overflow.
   val load = new Area {
-    val keyFeature = take && kind.keyFeature
+    val keyFeature = takes.key.take && kind.keyFeature
     // the store's count tested in registers a clock late: it changes only as a keyframe feature is taken, and items
     // are at least two clocks apart (the input's contract), so the next one meets the tests of the count it left
     val emptied = kind.emptiesStore
@@ -239,9 +256,9 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
     })
 
     /** a write (an append or a replacement) for lane `l`: the two never come in the same clock */
-    def writes(l: Int): Bool = (take && appendLanes(l)) || (replace && weakestLanes(l))
+    def writes(l: Int): Bool = (takes.key.take && appendLanes(l)) || (replace && weakestLanes(l))
     val overflow = meetsFull
-    when(take && kind.emptiesStore) {
+    when(takes.key.take && kind.emptiesStore) {
       stored := 0
       full := False
     }
@@ -296,7 +313,7 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
       issuing := !lastGroup
       lastGroup := group === groupsCompared.lessTwo
     }
-    val start = take && kind.liveFeature
+    val start = takes.live.take && kind.liveFeature
     when(start) {
       activity := Activity.SCAN
       group := 0
@@ -361,7 +378,7 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
       more := following < stored
     }
     endsOn(busy && !more)
-    when(take && kind.liveEnd) {
+    when(takes.ends.take && kind.liveEnd) {
       activity := Activity.SWEEP
       entry := 0
       following := 1
@@ -392,7 +409,7 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
       atLast := (if (m.groups >= 2) group === m.groups - 2 else True)
     }
     endsOn(busy && atLast)
-    when(take && kind.keyEnd) {
+    when(takes.ends.take && kind.keyEnd) {
       activity := Activity.KEY_END
       group := 0
       atLast := Bool(m.groups == 1)
@@ -829,6 +846,10 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
   take := ready && waiting
   item.ready := take
   waiting := item.valid && !take
+  for (h <- takes.all) {
+    h.ready := readyNext
+    h.waiting := item.valid && !take
+  }
 
   // The correspondence registered on its way into the FIFO (the lanes' RAMs are far from it): a scan's is pushed a
   // clock after its decision, the sweep's `pushLatency` clocks after its read.
@@ -846,7 +867,9 @@ class Matcher(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, m: Matche
   val push = output.io.push
   push.valid := RegNext(decide.emit || sweptOut.emit) init False
   push.payload := RegNext(beat)
-  io.correspondences << output.io.pop
+  // the consumer's readiness into a register before it reaches the FIFO's pointers (a skid buffer, which holds one
+  // correspondence more): the consumer lies apart
+  io.correspondences << output.io.pop.s2mPipe()
 
   // each count a clock late (`Pipes.lateCounter`): no handshake reaches a counter's enables
   val counters = new Area {
