@@ -30,12 +30,15 @@ object Arith {
     Seq(sum, carry)
   }
 
-  /** `terms` reduced by 3:2 compressors to at most two words with the same sum modulo 2^width */
-  def carrySaveWords(terms: Seq[UInt], width: Int): Seq[UInt] =
+  /** `terms` reduced by 3:2 compressors to at most two words with the same sum (plus one if `plusOne`: three terms
+    * or more, the one in the first carry word's free low bit) modulo 2^width */
+  def carrySaveWords(terms: Seq[UInt], width: Int, plusOne: Boolean = false): Seq[UInt] = {
+    require(!plusOne || terms.size >= 3, "the one takes a carry word's free bit: three terms or more")
     terms.map(_.resize(width)) match {
-      case Seq(a, b, c, rest @ _*) => carrySaveWords(rest ++ compress(a, b, c, plusOne = false), width)
+      case Seq(a, b, c, rest @ _*) => carrySaveWords(rest ++ compress(a, b, c, plusOne), width)
       case few => few
     }
+  }
 
   /** the sum of `terms` (plus one if `plusOne`) modulo 2^width: three terms into a sum and a carry word while more
     * than two remain, then one adder; the one takes the first carry word's free low bit */

@@ -9,8 +9,8 @@ import orb.Pipes.keptApart
 /** Where each step of the detector sits in its pipeline (node index); a later node means more registers in
   * between. Steps of one node share a clock; the default registers the input column three times (it comes from
   * the line buffer's RAM, which the smoother and the orientation unit share: one register may lie by the RAM, one
-  * by the Sobel adders and one on the wire between them), puts a register after every adder tree and multiplier,
-  * and gives the gradients two registers before the products (the second becomes the multiplier block's input
+  * by the Sobel adders and one on the wire between them), puts a register after every adder tree and multiplier
+  * (in the window's sums after every LUT level and every carry chain: never both in one clock), and gives the gradients two registers before the products (the second becomes the multiplier block's input
   * register, the first stays beside the Sobel adders, so no adder drives the long wires to the multipliers) and the
   * products two after them (the first is the multiplier block's output register, the second lies beside the adders
   * that take them). */
@@ -19,18 +19,20 @@ case class HarrisStages(
     sobelDiff: Int = 4,
     products: Int = 6,
     columnPre: Int = 8,
-    columnMid: Int = 9,
-    columnSum: Int = 10,
-    rowPre: Int = 11,
-    rowMid: Int = 12,
-    rowSum: Int = 13,
-    trace: Int = 14,
-    multiply: Int = 16,
-    kTrace: Int = 18,
-    kTraceSum: Int = 19,
-    response: Int = 20,
-    score: Int = 21,
-    suppressRead: Int = 22,
+    columnWords: Int = 9,
+    columnHalves: Int = 10,
+    columnSum: Int = 11,
+    rowPre: Int = 12,
+    rowWords: Int = 13,
+    rowHalves: Int = 14,
+    rowSum: Int = 15,
+    trace: Int = 16,
+    multiply: Int = 18,
+    kTrace: Int = 20,
+    kTraceSum: Int = 21,
+    response: Int = 22,
+    score: Int = 23,
+    suppressRead: Int = 24,
     suppressParts: Int = 3,
     segmentCompare: Int = 3,
     segmentArc: Int = 4,
@@ -41,10 +43,12 @@ case class HarrisStages(
     sobelDiff,
     products,
     columnPre,
-    columnMid,
+    columnWords,
+    columnHalves,
     columnSum,
     rowPre,
-    rowMid,
+    rowWords,
+    rowHalves,
     rowSum,
     trace,
     multiply,
@@ -125,35 +129,42 @@ class HarrisDetector(f: FrameConfig, h: HarrisConfig, columnRows: Int, stages: H
   private def w121(a: SInt, b: SInt, c: SInt, width: Int): SInt =
     Arith.carrySaveSumSigned(Seq(a, b.resize(width) |<< 1, c), width) // a LUT level, then one adder
 
-  /** Binomial 1 6 15 20 15 6 1 as a symmetric pre-add (at node `pre`) then shifts and adds (at node `sum`; with a
-    * `mid` node, the two halves of that sum are registered there), plus `bias` if given. */
+  /** Binomial 1 6 15 20 15 6 1 of `values` (plus `bias` if given), every step from registers with one LUT level or
+    * one carry chain, never both in one clock: the symmetric pairs and 20 d at `pre` (four adders), a + 6 b and
+    * 15 c + 20 d = 16 c + ~c + 1 + 20 d each as two carry-save words at `words` (a LUT level), each pair of words
+    * added at `halves`, the halves at `sum`. A bias joins the outer pair from the last value's own register (see
+    * `biasedLast`), so no step adds three terms. */
   private def binomial7(
       values: collection.IndexedSeq[SInt],
       pre: Node,
+      words: Node,
+      halves: Node,
       sum: Node,
-      width: Int,
-      mid: Option[Node] = None,
-      bias: Option[SInt] = None
+      width: Int
   ): SInt = {
     require(values.size == 7)
-    // a bias (the rounding's half) joins the outer pair, whose weight is 1: no adder more in the last step; the
-    // three terms through a carry-save step into one adder
-    val outer = carrySaveSumSigned(Seq(values(0), values(6)) ++ bias.toSeq, width)
-    // the middle three too (e = c + d), so that each half below is three terms: one carry-save step
-    val middle = carrySaveSumSigned(Seq(values(2), values(3), values(4)), width)
-    val pairs = pre.insert(Vec(outer +: Seq((1, 5), (2, 4)).map { case (i, j) =>
-      values(i).resize(width) + values(j).resize(width)
-    } :+
-      values(3).resize(width) :+
-      middle))
-    val m = mid.getOrElse(sum)
-    val Seq(a, b, c, d, e) = m(pairs).toSeq
-    // a + 6b and 15c + 20d = 16e + 4d + ~c + 1, each through one carry-save step into one adder
-    val halves = m.insert(Vec(
-      carrySaveSumSigned(Seq(a, b |<< 2, b |<< 1), width),
-      carrySaveSumSigned(Seq(e |<< 4, d |<< 2, ~c), width, plusOne = true)
+    def wide(i: Int): UInt = values(i).resize(width).asUInt
+    val PAIRS = pre.insert(Vec(
+      wide(0) + wide(6),
+      wide(1) + wide(5),
+      wide(2) + wide(4),
+      (wide(3) |<< 4) + (wide(3) |<< 2)
     ))
-    sum(halves)(0) + sum(halves)(1)
+    val Seq(a, b, c, d20) = words(PAIRS).toSeq
+    val WORDS = words.insert(Vec(
+      carrySaveWords(Seq(a, b |<< 2, b |<< 1), width) ++
+        carrySaveWords(Seq(c |<< 4, ~c, d20), width, plusOne = true)
+    ))
+    val w = halves(WORDS)
+    val HALVES = halves.insert(Vec(w(0) + w(1), w(2) + w(3)))
+    (sum(HALVES)(0) + sum(HALVES)(1)).asSInt
+  }
+
+  /** The last 7 values of `v` that the row window sums (element 0 = `v`), the last with `bias` added as it is
+    * loaded (an adder from the register before it): the outer pair then sums the bias without a third term. */
+  private def biasedLast(v: SInt, width: Int, bias: SInt, valid: Bool): Vec[SInt] = {
+    val first = lastValid(v.resize(width), 6, valid)
+    Vec(first :+ RegNextWhen(first.last + bias, valid))
   }
 
   // Column index r is r rows above the newest; gradients are taken for the 7 rows centred on indices 1..7,
@@ -233,27 +244,17 @@ class HarrisDetector(f: FrameConfig, h: HarrisConfig, columnRows: Int, stages: H
   // Vertical pass of the window: exact sums over the 7 rows of one column.
   val column = new Area {
     val w = h.columnCrossWidth
-    val VXX = at(stages.columnSum).insert(binomial7(
-      at(stages.columnPre)(products.XX),
+    def sum(products: Payload[Vec[SInt]]): SInt = binomial7(
+      at(stages.columnPre)(products),
       at(stages.columnPre),
+      at(stages.columnWords),
+      at(stages.columnHalves),
       at(stages.columnSum),
-      w,
-      Some(at(stages.columnMid))
-    ))
-    val VYY = at(stages.columnSum).insert(binomial7(
-      at(stages.columnPre)(products.YY),
-      at(stages.columnPre),
-      at(stages.columnSum),
-      w,
-      Some(at(stages.columnMid))
-    ))
-    val VXY = at(stages.columnSum).insert(binomial7(
-      at(stages.columnPre)(products.XY),
-      at(stages.columnPre),
-      at(stages.columnSum),
-      w,
-      Some(at(stages.columnMid))
-    ))
+      w
+    )
+    val VXX = at(stages.columnSum).insert(sum(products.XX))
+    val VYY = at(stages.columnSum).insert(sum(products.YY))
+    val VXY = at(stages.columnSum).insert(sum(products.XY))
   }
 
   // Horizontal pass over the last 7 column sums (they advance with valid pixels only), then the window shift.
@@ -265,12 +266,12 @@ class HarrisDetector(f: FrameConfig, h: HarrisConfig, columnRows: Int, stages: H
     def window(v: Payload[SInt]): SInt =
       floorShift(
         binomial7(
-          lastValid(pre(v), 7, validCopy(stages.rowPre)),
+          biasedLast(pre(v), w, half, validCopy(stages.rowPre)),
           pre,
+          at(stages.rowWords),
+          at(stages.rowHalves),
           at(stages.rowSum),
-          w,
-          Some(at(stages.rowMid)),
-          Some(half)
+          w
         ),
         h.windowShift
       )
@@ -366,11 +367,15 @@ class HarrisDetector(f: FrameConfig, h: HarrisConfig, columnRows: Int, stages: H
     // so beats still in flight from the previous frame see the right values.
     // (v - reach) in [border, size - 1 - border], without unsigned wrap-around for small frames: v >= border + reach
     // and v < size + reach - border, each one comparison of the beat's position with a constant or a register
-    // (the size's bound registered beside them), tested a stage ahead from the same beat's position
+    // (the size's bound registered beside them), tested a stage ahead from the same beat's position. The bound
+    // from registers in two steps (an adder and a comparison with constants side by side, then the choice): the
+    // geometry is constant for clocks before a frame's first beat reaches here.
     val w = at(stages.window)
     def below(size: UInt): UInt = {
       val end = size +^ reach
-      RegNext(Mux(end < h.border, U(0, widthOf(end) bits), end - h.border))
+      val none = RegNext(end < h.border)
+      val bound = RegNext(end - h.border)
+      RegNext(Mux(none, U(0, widthOf(end) bits), bound))
     }
     def inside(v: UInt, size: UInt): Seq[Bool] = Seq(v >= h.border + reach, v < below(size))
     val INSIDE = w.insert(Vec(inside(w(position.X), geometry.width) ++ inside(w(position.Y), geometry.height)))
