@@ -117,7 +117,7 @@ class OrientationUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, c
   arrivingCorner.lastX := io.corners.payload.x + R
   arrivingCorner.lastY := io.corners.payload.y + R
   arrivingCorner.score := io.corners.payload.score
-  val queue = StreamFifo(Waiting(), d.cornerQueueDepth, forFMax = true)
+  val queue = new CreditFifo(Waiting(), d.cornerQueueDepth)
   queue.io.push.valid := arriving
   queue.io.push.payload := arrivingCorner
   val queueDrop = arriving && !queue.io.push.ready && !sums.frameStart
@@ -172,16 +172,13 @@ class OrientationUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, c
     require(t.head.getWidth <= acc1Width && ts.head.getWidth <= acc2Width && tv.head.getWidth <= momentWidth)
   }
 
-  // The queue's head, through a register (a RAM's output is too slow to decide on in the same clock): the RAM's
-  // data into a plain register first (the RAM's output register: nothing else reads it), then a buffer
-  // (its readiness through a register too: no decision on the head reaches the queue's RAM and pointers), then the
+  // The queue's head: the queue reads ahead into registers of its own (its RAM's data through a plain register
+  // first, its reads decided from registers: no decision on the head reaches the queue's RAM and pointers), then the
   // corner after the head, which takes one only when empty (its readiness a register: the head's decision reaches
   // no further back). The head passes a corner at most every other clock (corners' last columns come two pixels
   // apart at least, and a head waits a clock for its comparisons), so that is fast enough: the corner after the
   // head is in place again in the clock the head can next fire.
-  val fromRam = queue.io.pop.m2sPipe(flush = sums.frameStart)
-  val buffered = fromRam.s2mPipe(flush = sums.frameStart)
-  val popped = Pipes.halfPipe(buffered, flush = sums.frameStart)
+  val popped = Pipes.halfPipe(queue.io.pop, flush = sums.frameStart)
   val head = popped.m2sPipe(flush = sums.frameStart)
   // The head against the stream position: compared two clocks ahead (the position `sums` shows in the next clock
   // but one) into registers, with the head and with the corner after it, and the comparisons of the one the head
@@ -223,13 +220,16 @@ class OrientationUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, c
   // the queue's pointers lie apart from the sums: a copy of the frame start of their own
   queue.io.flush := sums.frameStartCopy()
 
-  /** the most corners one clock can drop: the queue, its output register, its buffer and two head registers
-    * flushed, the one arriving then and the one in front of the queue, one more */
-  val dropWidth = log2Up(d.cornerQueueDepth + 5 + 4 + 2)
-  // What a frame start flushes is registered first, the queue's occupancy apart from the corners held around it
-  // (no adder behind the occupancy's), and counted in the clocks after (see `dropsNow`).
-  val flushedQueued = RegNext(Mux(sums.frameStart, queue.io.occupancy.resize(dropWidth), U(0, dropWidth bits))) init 0
-  val held = Vec(io.corners.valid, arriving, fromRam.valid, !fromRam.ready, popped.valid, head.valid)
+  // the corners held beside the queue's RAM: the one in front of the queue and the one arriving, the queue's reads
+  // and places, the corner after the head and the head
+  val held = Vec(Seq(io.corners.valid, arriving) ++ queue.io.held.asBools ++ Seq(popped.valid, head.valid))
+
+  /** the most corners one clock can drop: the queue's RAM and every corner held beside it flushed, and the clock's
+    * single drops (`singleDrops`) */
+  val dropWidth = log2Up(d.cornerQueueDepth + held.size + 3 + 1)
+  // What a frame start flushes is registered first, the queue's count apart from the corners held around it
+  // (no adder behind the count's register), and counted in the clocks after (see `dropsNow`).
+  val flushedQueued = RegNext(Mux(sums.frameStart, queue.io.stored.resize(dropWidth), U(0, dropWidth bits))) init 0
   val flushedHeld = RegNext(Mux(sums.frameStart, CountOne(held), U(0, log2Up(held.size + 1) bits))) init 0
 
   // The finished corner, a clock after its last column's beat: m10 = sum u I = R sum T - sum j T, formed in the
