@@ -198,10 +198,14 @@ object Report {
     println(s"$app: ${mems.size} memories, ${mems.map(_.m4k).sum} M4K; Yosys generic synthesis (a few minutes)")
     val (statText, alone) = runYosys(dir, verilog, report.toplevelName)
     val stat = withAlone(parseStat(statText), alone)
-    // Blocks: the core's stages and the matcher, as instances; the rest (registers, glue) is "top".
-    val blockCells = instances.map { case (n, c) => n -> total(c.definitionName, stat) }
-    val all = total(report.toplevelName, stat)
-    val glue = blockCells.map(_._2).foldLeft(all)(_ - _)
+    // Blocks: the core's stages and the matcher, as instances, each counted in a Yosys run of its own (so that it
+    // moves only with its own RTL); the rest (registers, glue) is "top", from the whole design's run.
+    val glue =
+      instances.map { case (_, c) => total(c.definitionName, stat) }.foldLeft(total(report.toplevelName, stat))(
+        _ - _
+      )
+    val blockCells = instances.map { case (n, c) => n -> moduleCells(dir, verilog, c.definitionName, s"yosys/$n") }
+    val all = blockCells.map(_._2).foldLeft(glue)(_ + _)
     val blocks = blockCells :+ ("top" -> glue)
     def m4kOf(b: String) = mems.filter(_.block == b).map(_.m4k).sum
     val seeds = 1 to o.seeds

@@ -110,9 +110,49 @@ object ResourceCount {
     log.linesIterator.exists(l => l.startsWith("ABC:") && l.contains("Assertion")) &&
       log.contains("ERROR: ABC: execution of command")
 
-  /** Yosys' `stat` text and the flip-flops alone per module. */
-  def runYosys(dir: File, verilog: File, top: String): (String, Map[String, Long]) = {
-    val work = new File(dir, "yosys"); work.mkdirs()
+  /** Yosys' `stat` text and the flip-flops alone per module, for `top` and the modules below it (`work` under
+    * `dir`). Only they are elaborated (`read_verilog -defer`), so the other modules of the file, and what they
+    * name, cannot change how ABC maps them. */
+  def runYosys(dir: File, verilog: File, top: String, work: String = "yosys"): (String, Map[String, Long]) = {
+    val workDir = new File(dir, work); workDir.mkdirs()
+    runYosysIn(workDir, verilog, top)
+  }
+
+  /** A module's cells (with the modules below it) from a Yosys run of its own, on a file of its own modules alone
+    * (`moduleVerilog`): the count moves only with their RTL. ABC's mapping depends on the order of the names it is
+    * given, and any other module Yosys reads, even unelaborated, shifts it. */
+  def moduleCells(dir: File, verilog: File, module: String, work: String): Cells = {
+    val workDir = new File(dir, work); workDir.mkdirs()
+    val own = new File(workDir, s"$module.v")
+    Report.write(own, moduleVerilog(scala.io.Source.fromFile(verilog).mkString, module))
+    val (text, alone) = runYosys(dir, own, module, work)
+    total(module, withAlone(parseStat(text), alone))
+  }
+
+  /** `module` and every module it instantiates, directly or below, from a Verilog file, in the file's order. */
+  def moduleVerilog(text: String, module: String): String = {
+    val header = """(?m)^module\s+(\w+)""".r
+    val starts = header.findAllMatchIn(text).map(m => m.group(1) -> m.start).toSeq
+    val texts = starts.map { case (name, at) =>
+      val end = text.indexOf("endmodule", at)
+      require(end > at, s"module $name has no endmodule")
+      name -> text.substring(at, end + "endmodule".length)
+    }.toMap
+    require(texts.contains(module), s"no module $module in the Verilog")
+    val instance = """(?m)^\s*(\w+)\s+\w+\s*\(""".r
+    def below(m: String): Set[String] =
+      instance.findAllMatchIn(texts(m)).map(_.group(1)).filter(n => n != m && texts.contains(n)).toSet
+    var wanted = Set(module)
+    var frontier = Set(module)
+    while (frontier.nonEmpty) {
+      val next = frontier.flatMap(below) -- wanted
+      wanted ++= next
+      frontier = next
+    }
+    starts.map(_._1).filter(wanted).map(texts).mkString("", "\n\n", "\n")
+  }
+
+  private def runYosysIn(work: File, verilog: File, top: String): (String, Map[String, Long]) = {
     for (f <- Seq("cells.v", "map_mul.v", "map_alu.v", "flow.ys", "netlist.py")) {
       val in = getClass.getResourceAsStream(s"/orb/report/$f")
       require(in != null, s"missing resource orb/report/$f")

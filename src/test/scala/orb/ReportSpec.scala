@@ -88,6 +88,27 @@ class ReportSpec extends AnyFunSuite {
     assert(alone(r.toplevelName) == 10, alone)
   }
 
+  test("the resource count: a block is counted in a Yosys run of its own, whatever else the file holds") {
+    // ABC's mapping follows the order of the names it is given; a run of the whole design let every other module's
+    // names move a block's count (the feature budget, its Verilog unchanged, by up to about 170 LEs)
+    val dir = new File("target/report-test/own")
+    val r = Generate.spinalConfig(dir.getPath).generate(new OrbTop(OrbConfig.default))
+    val module = r.toplevel.core.budget.definitionName
+    val verilog = new File(dir, s"${r.toplevelName}.v")
+    val text = scala.io.Source.fromFile(verilog).mkString
+    // the same file with a module of many names of its own before the block's
+    val names = (0 until 400).map(i => s"  wire [7:0] probe_$i = a + 8'd$i;").mkString("\n")
+    val probe =
+      s"module OrbCountProbe (input wire [7:0] a, output wire [7:0] y);\n$names\n  assign y = probe_399;\nendmodule\n\n"
+    val start = text.indexOf(s"module $module ")
+    assert(start > 0, s"module $module in the Verilog")
+    val other = new File(dir, "withProbe.v")
+    Report.write(other, text.substring(0, start) + probe + text.substring(start))
+    val alone = ResourceCount.moduleCells(dir, verilog, module, "yosys/plain")
+    val beside = ResourceCount.moduleCells(dir, other, module, "yosys/probe")
+    assert(alone.luts > 0 && alone == beside, s"$alone against $beside")
+  }
+
   test("the resource count: a register kept apart that nothing reads takes no logic element") {
     val dir = new File("target/report-test/kept")
     val r = Generate.spinalConfig(dir.getPath).generate(new Ecp5Proxy.KeptProbe)
