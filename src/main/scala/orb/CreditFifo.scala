@@ -8,18 +8,20 @@ import spinal.lib._
   * from the consumer's readiness, so no handshake reaches the RAM's pointers in the clock it is decided (a
   * `StreamFifo` steps its read pointer from the pop's handshake, through its address stage). The read port is always
   * enabled at the read pointer (a register), its data through a plain register (the RAM's output register) into the
-  * places; the head is place 0, a register. A word takes four clocks from its read to the credit it frees, so
+  * places, a ring of registers. A word takes four clocks from its read to the credit it frees, so
   * `buffer` places serve a consumer that takes one every `4 / buffer` clocks. Full and empty are registers, each set
   * from one comparison of the count register and the push and read, as in `SettledFifo`. `flush` empties it all;
-  * `io.held` shows what it holds beside the RAM's words (`io.stored`), for counting what a flush drops. */
-class CreditFifo[T <: Data](payloadType: HardType[T], depth: Int, buffer: Int = 3) extends Component {
+  * `io.held` (reads in flight) and `io.placed` (words in the places) show what it holds beside the RAM's words
+  * (`io.stored`), for counting what a flush drops. */
+class CreditFifo[T <: Data](payloadType: HardType[T], depth: Int, val buffer: Int = 3) extends Component {
   require(depth >= 2 && buffer >= 2)
   val io = new Bundle {
     val push = slave Stream (payloadType())
     val pop = master Stream (payloadType())
     val flush = in Bool ()
     val stored = out UInt (log2Up(depth + 1) bits)
-    val held = out Bits (2 + buffer bits)
+    val held = out Bits (2 bits)
+    val placed = out UInt (log2Up(buffer + 1) bits)
   }
   val ram = Mem(payloadType(), depth)
   val addressWidth = log2Up(depth)
@@ -63,28 +65,38 @@ class CreditFifo[T <: Data](payloadType: HardType[T], depth: Int, buffer: Int = 
   val reading = RegNext(read) init False
   val arriving = RegNext(reading) init False
 
-  // the places: place 0 is the head; the used ones are contiguous from it; a pop moves the others on by one, and an
-  // arriving word takes the first place free after the move
+  // the places in a ring: an arriving word is written where the tail points (an enable, no selection before the
+  // places), the head is the place the head pointer picks; the count of used places and its emptiness are registers
   val places = Vec(Reg(payloadType()), buffer)
-  val used = Vec(RegInit(False), buffer)
+  val placeWidth = log2Up(buffer)
+  def nextPlace(at: UInt): UInt =
+    if (isPow2(buffer)) at + 1 else Mux(at === buffer - 1, U(0, placeWidth bits), at + 1)
+  val tail, head = Reg(UInt(placeWidth bits)) init 0
+  val used = Reg(UInt(log2Up(buffer + 1) bits)) init 0
+  val holds = RegInit(False)
   val popped = io.pop.fire
-  io.pop.valid := used(0)
-  io.pop.payload := places(0)
-  for (i <- 0 until buffer) {
-    val next = if (i + 1 < buffer) used(i + 1) else False
-    val previous = if (i == 0) True else used(i - 1)
-    val takes = arriving && Mux(popped, used(i) && !next, !used(i) && previous)
-    when(takes) {
-      places(i) := data
-    } elsewhen (popped) {
-      if (i + 1 < buffer) places(i) := places(i + 1)
-    }
-    used(i) := takes || Mux(popped, next, used(i))
+  io.pop.valid := holds
+  io.pop.payload := places(head)
+  when(arriving) {
+    places(tail) := data
+    tail := nextPlace(tail)
+  }
+  when(popped) {
+    head := nextPlace(head)
+  }
+  when(arriving && !popped) {
+    used := used + 1
+    holds := True
+  }
+  when(popped && !arriving) {
+    used := used - 1
+    holds := used =/= 1
   }
   credits := credits - U(read) + U(popped)
 
   io.stored := count
-  io.held := Cat(used.asBits, arriving, reading)
+  io.placed := used
+  io.held := Cat(arriving, reading)
 
   when(io.flush) {
     writeAt := 0
@@ -95,6 +107,9 @@ class CreditFifo[T <: Data](payloadType: HardType[T], depth: Int, buffer: Int = 
     credits := buffer
     reading := False
     arriving := False
-    used.foreach(_ := False)
+    tail := 0
+    head := 0
+    used := 0
+    holds := False
   }
 }

@@ -68,12 +68,15 @@ class FeatureBudget(cfg: OrbConfig) extends Component {
   }
 
   /** Corners kept per cell in this frame's line length: `OrbConfig.perCellFor`, from its steps, into a register; the
-    * width registered first on the budget's side (it changes only between frames, and comes from the frame tracker,
-    * apart from the lists), then its comparisons with the steps (the choice among them a clock later: the count
-    * changes 22 rows before a frame's first corner) */
+    * width registered twice first on the budget's way (it changes only between frames, and comes from the frame
+    * tracker, apart from the lists), then a copy per step (kept apart: no one register drives every comparison),
+    * then its comparisons with the steps (the choice among them a clock later: the count changes 22 rows before a
+    * frame's first corner) */
   val perCell = new Area {
-    val width = RegNext(io.geometry.width) init 0
-    val reaches = cfg.perCellSteps.map { case (from, _) => RegNext(width >= from) init False }
+    val width = RegNext(RegNext(io.geometry.width) init 0) init 0
+    val reaches = cfg.perCellSteps.map { case (from, _) =>
+      RegNext(keptApart(RegNext(width) init 0) >= from) init False
+    }
     val fromSteps = UInt(log2Up(k + 1) bits)
     fromSteps := 0
     for (((_, n), reached) <- cfg.perCellSteps.zip(reaches)) when(reached) { fromSteps := n }

@@ -16,23 +16,24 @@ import orb.Pipes.keptApart
   * that take them). */
 case class HarrisStages(
     sobel: Int = 3,
-    sobelDiff: Int = 4,
-    products: Int = 6,
-    columnPre: Int = 8,
-    columnWords: Int = 9,
-    columnHalves: Int = 10,
-    columnSum: Int = 11,
-    rowPre: Int = 12,
-    rowWords: Int = 13,
-    rowHalves: Int = 14,
-    rowSum: Int = 15,
-    trace: Int = 16,
-    multiply: Int = 18,
-    kTrace: Int = 20,
-    kTraceSum: Int = 21,
-    response: Int = 22,
-    score: Int = 23,
-    suppressRead: Int = 24,
+    sobelPairs: Int = 4,
+    gradients: Int = 5,
+    products: Int = 7,
+    columnPre: Int = 9,
+    columnWords: Int = 10,
+    columnHalves: Int = 11,
+    columnSum: Int = 12,
+    rowPre: Int = 13,
+    rowWords: Int = 14,
+    rowHalves: Int = 15,
+    rowSum: Int = 16,
+    trace: Int = 17,
+    multiply: Int = 19,
+    kTrace: Int = 21,
+    kTraceSum: Int = 22,
+    response: Int = 23,
+    score: Int = 24,
+    suppressRead: Int = 25,
     suppressParts: Int = 3,
     segmentCompare: Int = 3,
     segmentArc: Int = 4,
@@ -40,7 +41,8 @@ case class HarrisStages(
 ) {
   private val order = Seq(
     sobel,
-    sobelDiff,
+    sobelPairs,
+    gradients,
     products,
     columnPre,
     columnWords,
@@ -110,9 +112,10 @@ class HarrisDetector(f: FrameConfig, h: HarrisConfig, columnRows: Int, stages: H
   // The run-time parameters, registered here: they come from the register file across the chip and fan out to
   // every comparator (a write takes effect a clock later; they are constant within a frame).
   val control = RegNext(io.control)
-  // The frame's geometry, registered here too (the tracker is across the chip): it changes only at a start of frame
-  // that follows a good frame of the same geometry, so no beat in flight sees another value.
-  val geometry = RegNext(io.geometry)
+  // The frame's geometry, registered twice here too (the tracker is across the chip): it changes only at the start of
+  // the frame after one that measured it (which produces nothing), and a frame's first beats reach the border test
+  // many clocks later (see `suppress`).
+  val geometry = RegNext(RegNext(io.geometry))
   val COLUMN = Payload(Vec(UInt(8 bits), HarrisConfig.rawRows))
   val PIXEL = Payload(TrackedPixel(f))
   at(0).driveFrom(io.columns) { (n, p) =>
@@ -124,10 +127,6 @@ class HarrisDetector(f: FrameConfig, h: HarrisConfig, columnRows: Int, stages: H
     * enabled by one of its own, not by the register that also drives the node's stage (node 0's is the input's). */
   private def validCopy(i: Int): Bool =
     if (i == 0) at(0).isValid else keptApart(RegNext(at(i - 1).isValid) init False)
-
-  /** 1 2 1 smoothing of three values. */
-  private def w121(a: SInt, b: SInt, c: SInt, width: Int): SInt =
-    Arith.carrySaveSumSigned(Seq(a, b.resize(width) |<< 1, c), width) // a LUT level, then one adder
 
   /** Binomial 1 6 15 20 15 6 1 of `values` (plus `bias` if given), every step from registers with one LUT level or
     * one carry chain, never both in one clock: the symmetric pairs and 20 d at `pre` (four adders), a + 6 b and
@@ -168,20 +167,26 @@ class HarrisDetector(f: FrameConfig, h: HarrisConfig, columnRows: Int, stages: H
   }
 
   // Column index r is r rows above the newest; gradients are taken for the 7 rows centred on indices 1..7,
-  // at column x-1 of the newest pixel x. The 1 2 1 sums in one step, their differences in the next.
+  // at column x-1 of the newest pixel x. Each Sobel sum of 1 2 1 weights as two adders of pairs: gx of row r is
+  // d(r-1) + 2 d(r) + d(r+1), d(j) = p(x, j) - p(x-2, j), so (d(r-1) + d(r)) + (d(r) + d(r+1)); gy likewise over
+  // the three columns of e(c) = p(c, r-1) - p(c, r+1). The differences in one step, the pairs in the next, the
+  // gradients in the one after that: an adder a clock, each from registers.
   val sobelNode = at(stages.sobel)
   val sobel = new sobelNode.Area {
     val cols = lastValid(this(COLUMN), 3, validCopy(stages.sobel)) // 0: column x, 1: x-1, 2: x-2
-    def px(c: Int, r: Int): SInt = cols(c)(r).intoSInt
     val gw = h.gradWidth
-    val RIGHT = insert(Vec((1 to 7).map(r => w121(px(0, r - 1), px(0, r), px(0, r + 1), gw))))
-    val LEFT = insert(Vec((1 to 7).map(r => w121(px(2, r - 1), px(2, r), px(2, r + 1), gw))))
+    def px(c: Int, r: Int): SInt = cols(c)(r).intoSInt.resize(gw)
     // Index r-1 is the row below r (newer), so gy = bottom - top as in OpenCV.
-    val BOTTOM = insert(Vec((1 to 7).map(r => w121(px(0, r - 1), px(1, r - 1), px(2, r - 1), gw))))
-    val TOP = insert(Vec((1 to 7).map(r => w121(px(0, r + 1), px(1, r + 1), px(2, r + 1), gw))))
-    val diffNode = at(stages.sobelDiff)
-    val GX = diffNode.insert(Vec((0 until 7).map(i => diffNode(RIGHT)(i) - diffNode(LEFT)(i))))
-    val GY = diffNode.insert(Vec((0 until 7).map(i => diffNode(BOTTOM)(i) - diffNode(TOP)(i))))
+    val ACROSS = insert(Vec((0 until 9).map(r => px(0, r) - px(2, r))))
+    val DOWN = insert(Vec((1 to 7).map(r => Vec((0 until 3).map(c => px(c, r - 1) - px(c, r + 1))))))
+    val pairsNode = at(stages.sobelPairs)
+    val across = pairsNode(ACROSS)
+    val down = pairsNode(DOWN)
+    val ACROSS_PAIRS = pairsNode.insert(Vec((0 until 8).map(j => across(j) + across(j + 1))))
+    val DOWN_PAIRS = pairsNode.insert(Vec(down.map(e => Vec(e(0) + e(1), e(1) + e(2)))))
+    val gradNode = at(stages.gradients)
+    val GX = gradNode.insert(Vec((0 until 7).map(i => gradNode(ACROSS_PAIRS)(i) + gradNode(ACROSS_PAIRS)(i + 1))))
+    val GY = gradNode.insert(Vec(gradNode(DOWN_PAIRS).map(p => p(0) + p(1))))
   }
 
   // Segment test at the window's centre (x - 4, y - 4 of the newest pixel x, y): its 7x7 raw pixels are rows
@@ -363,13 +368,11 @@ class HarrisDetector(f: FrameConfig, h: HarrisConfig, columnRows: Int, stages: H
     val comparisons = 1 + earlier.size + later.size
     def centreFor(comparison: Int): UInt = centreCopies(comparison * centreCopies.size / comparisons)
     val p = n(PIXEL)
-    // The geometry registers only change at a start of frame that follows a good frame of the same geometry,
-    // so beats still in flight from the previous frame see the right values.
     // (v - reach) in [border, size - 1 - border], without unsigned wrap-around for small frames: v >= border + reach
     // and v < size + reach - border, each one comparison of the beat's position with a constant or a register
     // (the size's bound registered beside them), tested a stage ahead from the same beat's position. The bound
     // from registers in two steps (an adder and a comparison with constants side by side, then the choice): the
-    // geometry is constant for clocks before a frame's first beat reaches here.
+    // geometry settles long before a frame's first beat reaches here (see `geometry`).
     val w = at(stages.window)
     def below(size: UInt): UInt = {
       val end = size +^ reach

@@ -190,11 +190,14 @@ class OrientationUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, c
     val position = sums.positionEarly.y @@ sums.positionEarly.x
 
     /** whether the stream has reached `w`'s last column (or gone past it: the row and the column compared side by
-      * side, two short carry chains, not one through both), and whether it is there, a clock later */
+      * side, two short carry chains, not one through both), and whether it is there, a clock later: the parts'
+      * results registered, combined after the register (a carry chain and the combination not in one clock) */
     class Compared(w: Waiting) extends Area {
       val last = w.lastY @@ w.lastX
-      val reached = RegNext(Arith.combineParts(Arith.comparedInParts(position, last, orEqual = true, parts = 2)))
-      val at = RegNext(position === last)
+      val reachedParts = RegNext(Arith.comparedInParts(position, last, orEqual = true, parts = 2))
+      val reached = Arith.combineParts(reachedParts)
+      val atParts = RegNext(Cat(sums.positionEarly.x === w.lastX, sums.positionEarly.y === w.lastY))
+      val at = atParts.andR
     }
     val ofHead = new Compared(head.payload)
     val ofNext = new Compared(popped.payload)
@@ -221,16 +224,19 @@ class OrientationUnit(f: FrameConfig, h: HarrisConfig, d: OrbDescriptorConfig, c
   queue.io.flush := sums.frameStartCopy()
 
   // the corners held beside the queue's RAM: the one in front of the queue and the one arriving, the queue's reads
-  // and places, the corner after the head and the head
+  // (and its places, `placed`), the corner after the head and the head
   val held = Vec(Seq(io.corners.valid, arriving) ++ queue.io.held.asBools ++ Seq(popped.valid, head.valid))
 
-  /** the most corners one clock can drop: the queue's RAM and every corner held beside it flushed, and the clock's
-    * single drops (`singleDrops`) */
-  val dropWidth = log2Up(d.cornerQueueDepth + held.size + 3 + 1)
+  /** the most corners one clock can drop: the queue's RAM and places and every corner held beside them flushed, and
+    * the clock's single drops (`singleDrops`) */
+  val dropWidth = log2Up(d.cornerQueueDepth + queue.buffer + held.size + 3 + 1)
   // What a frame start flushes is registered first, the queue's count apart from the corners held around it
   // (no adder behind the count's register), and counted in the clocks after (see `dropsNow`).
   val flushedQueued = RegNext(Mux(sums.frameStart, queue.io.stored.resize(dropWidth), U(0, dropWidth bits))) init 0
-  val flushedHeld = RegNext(Mux(sums.frameStart, CountOne(held), U(0, log2Up(held.size + 1) bits))) init 0
+  val heldWidth = log2Up(held.size + queue.buffer + 1)
+  val flushedHeld = RegNext(
+    Mux(sums.frameStart, CountOne(held).resize(heldWidth) + queue.io.placed.resize(heldWidth), U(0, heldWidth bits))
+  ) init 0
 
   // The finished corner, a clock after its last column's beat: m10 = sum u I = R sum T - sum j T, formed in the
   // stage after.
