@@ -10,7 +10,7 @@ import spinal.lib._
   * enabled at the read pointer (a register), its data through a plain register (the RAM's output register) into the
   * places, a ring of registers. A word takes four clocks from its read to the credit it frees, so
   * `buffer` places serve a consumer that takes one every `4 / buffer` clocks. Full and empty are registers, each set
-  * from one comparison of the count register and the push and read, as in `SettledFifo`. `flush` empties it all;
+  * from one comparison of the count register and the push and read (`QueueFill`, as in `SettledFifo`). `flush` empties it all;
   * `io.held` (reads in flight) and `io.placed` (words in the places) show what it holds beside the RAM's words
   * (`io.stored`), for counting what a flush drops. */
 class CreditFifo[T <: Data](payloadType: HardType[T], depth: Int, val buffer: Int = 3) extends Component {
@@ -24,44 +24,18 @@ class CreditFifo[T <: Data](payloadType: HardType[T], depth: Int, val buffer: In
     val placed = out UInt (log2Up(buffer + 1) bits)
   }
   val ram = Mem(payloadType(), depth)
-  val addressWidth = log2Up(depth)
-
-  /** the next place after `at` (a power-of-two depth wraps by itself) */
-  def after(at: UInt): UInt = if (isPow2(depth)) at + 1 else Mux(at === depth - 1, U(0, addressWidth bits), at + 1)
-  val writeAt, readAt = Reg(UInt(addressWidth bits)) init 0
-  val count = Reg(UInt(log2Up(depth + 1) bits)) init 0
-  val full = RegInit(False)
-  val empty = RegInit(True)
+  val fill = new QueueFill(depth)
   val credits = Reg(UInt(log2Up(buffer + 1) bits)) init buffer
 
-  io.push.ready := !full
+  io.push.ready := !fill.full
   val pushed = io.push.fire
-  ram.write(writeAt, io.push.payload, enable = pushed)
-  when(pushed) {
-    writeAt := after(writeAt)
-  }
-
+  ram.write(fill.writeAt, io.push.payload, enable = pushed)
   // a read when a word is stored and a place is free for it, from registers alone
-  val read = !empty && credits =/= 0
-  when(read) {
-    readAt := after(readAt)
-  }
-  // the count moves by one at most; full and empty change only where it moves onto or off its ends
-  val up = pushed && !read
-  val down = read && !pushed
-  when(up) {
-    count := count + 1
-    full := count === depth - 1
-    empty := False
-  }
-  when(down) {
-    count := count - 1
-    full := False
-    empty := count === 1
-  }
+  val read = !fill.empty && credits =/= 0
+  fill.step(pushed, read)
 
   // the read's word a clock later from the RAM, a clock after that from its output register
-  val data = RegNext(ram.readSync(readAt))
+  val data = RegNext(ram.readSync(fill.readAt))
   val reading = RegNext(read) init False
   val arriving = RegNext(reading) init False
 
@@ -94,16 +68,12 @@ class CreditFifo[T <: Data](payloadType: HardType[T], depth: Int, val buffer: In
   }
   credits := credits - U(read) + U(popped)
 
-  io.stored := count
+  io.stored := fill.count
   io.placed := used
   io.held := Cat(arriving, reading)
 
   when(io.flush) {
-    writeAt := 0
-    readAt := 0
-    count := 0
-    full := False
-    empty := True
+    fill.clear()
     credits := buffer
     reading := False
     arriving := False

@@ -17,6 +17,33 @@ class SettledFifo[T <: Data](payloadType: HardType[T], depth: Int) extends Compo
     val pop = master Stream (payloadType())
   }
   val ram = Mem(payloadType(), depth)
+  val fill = new QueueFill(depth)
+  io.push.ready := !fill.full
+  val pushed = io.push.fire
+  val popped = io.pop.fire
+  // the write a clock later, from registers
+  val writing = RegNext(pushed) init False
+  val writingAt = RegNext(fill.writeAt)
+  val writingData = RegNext(io.push.payload)
+  ram.write(writingAt, writingData, enable = writing)
+  fill.step(pushed, popped)
+
+  // the read address a plain copy of the pointer (the RAM's address register: no logic between the pointer's
+  // register and the RAM), the RAM's output register and a plain register behind it (the block's output register),
+  // all always enabled
+  val address = RegNext(fill.readAt)
+  val head = RegNext(ram.readSync(address))
+
+  /** the pointer held the head (not empty, no pop) for the address, the read and the output register; a head pushed
+    * into an empty queue is written a clock after the push, when `empty` falls, and read from the clock after */
+  val settled = (0 until 3).foldLeft(!fill.empty && !popped)((held, _) => RegNext(held && !popped) init False)
+  io.pop.valid := settled
+  io.pop.payload := head
+}
+
+/** A queue's place in its RAM: the write and read pointers and the count of words, with full and empty as registers,
+  * each set from one comparison of the count register where the count moves onto or off its ends. */
+class QueueFill(depth: Int) extends Area {
   val addressWidth = log2Up(depth)
 
   /** the next place after `at` (a power-of-two depth wraps by itself) */
@@ -25,43 +52,33 @@ class SettledFifo[T <: Data](payloadType: HardType[T], depth: Int) extends Compo
   val count = Reg(UInt(log2Up(depth + 1) bits)) init 0
   val full = RegInit(False)
   val empty = RegInit(True)
-  io.push.ready := !full
-  val pushed = io.push.fire
-  val popped = io.pop.fire
-  // the write a clock later, from registers
-  val writing = RegNext(pushed) init False
-  val writingAt = RegNext(writeAt)
-  val writingData = RegNext(io.push.payload)
-  ram.write(writingAt, writingData, enable = writing)
-  when(pushed) {
-    writeAt := after(writeAt)
+
+  /** a word in (`in`) and out (`out`) in this clock: the count moves by one at most */
+  def step(in: Bool, out: Bool): Unit = {
+    when(in) {
+      writeAt := after(writeAt)
+    }
+    when(out) {
+      readAt := after(readAt)
+    }
+    when(in && !out) {
+      count := count + 1
+      full := count === depth - 1
+      empty := False
+    }
+    when(out && !in) {
+      count := count - 1
+      full := False
+      empty := count === 1
+    }
   }
-  when(popped) {
-    readAt := after(readAt)
-  }
-  // the count moves by one at most; full and empty change only where it moves onto or off its ends
-  val up = pushed && !popped
-  val down = popped && !pushed
-  when(up) {
-    count := count + 1
-    full := count === depth - 1
-    empty := False
-  }
-  when(down) {
-    count := count - 1
+
+  /** empty again (a flush), overriding the clock's step */
+  def clear(): Unit = {
+    writeAt := 0
+    readAt := 0
+    count := 0
     full := False
-    empty := count === 1
+    empty := True
   }
-
-  // the read address a plain copy of the pointer (the RAM's address register: no logic between the pointer's
-  // register and the RAM), the RAM's output register and a plain register behind it (the block's output register),
-  // all always enabled
-  val address = RegNext(readAt)
-  val head = RegNext(ram.readSync(address))
-
-  /** the pointer held the head (not empty, no pop) for the address, the read and the output register; a head pushed
-    * into an empty queue is written a clock after the push, when `empty` falls, and read from the clock after */
-  val settled = (0 until 3).foldLeft(!empty && !popped)((held, _) => RegNext(held && !popped) init False)
-  io.pop.valid := settled
-  io.pop.payload := head
 }
