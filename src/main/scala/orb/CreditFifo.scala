@@ -8,11 +8,11 @@ import spinal.lib._
   * from the consumer's readiness, so no handshake reaches the RAM's pointers in the clock it is decided (a
   * `StreamFifo` steps its read pointer from the pop's handshake, through its address stage). The read port is always
   * enabled at the read pointer (a register), its data through a plain register (the RAM's output register) into the
-  * places, a ring of registers. A word takes four clocks from its read to the credit it frees, so
-  * `buffer` places serve a consumer that takes one every `4 / buffer` clocks. Full and empty are registers, each set
-  * from one comparison of the count register and the push and read (`QueueFill`, as in `SettledFifo`). `flush` empties it all;
-  * `io.held` (reads in flight) and `io.placed` (words in the places) show what it holds beside the RAM's words
-  * (`io.stored`), for counting what a flush drops. */
+  * places, a ring of registers. A word takes four clocks from its read to the credit it frees, so `buffer` places
+  * serve a consumer that takes one every `4 / buffer` clocks. The RAM's and the ring's pointers and counts are each a
+  * `QueueFill` (full and empty registers, as in `SettledFifo`). `flush` empties it all; `io.held` (reads in flight)
+  * and `io.placed` (words in the places) show what it holds beside the RAM's words (`io.stored`), for counting what a
+  * flush drops. */
 class CreditFifo[T <: Data](payloadType: HardType[T], depth: Int, val buffer: Int = 3) extends Component {
   require(depth >= 2 && buffer >= 2)
   val io = new Bundle {
@@ -39,37 +39,21 @@ class CreditFifo[T <: Data](payloadType: HardType[T], depth: Int, val buffer: In
   val reading = RegNext(read) init False
   val arriving = RegNext(reading) init False
 
-  // the places in a ring: an arriving word is written where the tail points (an enable, no selection before the
-  // places), the head is the place the head pointer picks; the count of used places and its emptiness are registers
+  // the places in a ring with pointers and a count of their own (an arriving word is written where the ring's write
+  // pointer points: an enable, no selection before the places; the head is the place its read pointer picks)
   val places = Vec(Reg(payloadType()), buffer)
-  val placeWidth = log2Up(buffer)
-  def nextPlace(at: UInt): UInt =
-    if (isPow2(buffer)) at + 1 else Mux(at === buffer - 1, U(0, placeWidth bits), at + 1)
-  val tail, head = Reg(UInt(placeWidth bits)) init 0
-  val used = Reg(UInt(log2Up(buffer + 1) bits)) init 0
-  val holds = RegInit(False)
+  val ring = new QueueFill(buffer)
   val popped = io.pop.fire
-  io.pop.valid := holds
-  io.pop.payload := places(head)
+  io.pop.valid := !ring.empty
+  io.pop.payload := places(ring.readAt)
   when(arriving) {
-    places(tail) := data
-    tail := nextPlace(tail)
+    places(ring.writeAt) := data
   }
-  when(popped) {
-    head := nextPlace(head)
-  }
-  when(arriving && !popped) {
-    used := used + 1
-    holds := True
-  }
-  when(popped && !arriving) {
-    used := used - 1
-    holds := used =/= 1
-  }
+  ring.step(arriving, popped)
   credits := credits - U(read) + U(popped)
 
   io.stored := fill.count
-  io.placed := used
+  io.placed := ring.count
   io.held := Cat(arriving, reading)
 
   when(io.flush) {
@@ -77,9 +61,6 @@ class CreditFifo[T <: Data](payloadType: HardType[T], depth: Int, val buffer: In
     credits := buffer
     reading := False
     arriving := False
-    tail := 0
-    head := 0
-    used := 0
-    holds := False
+    ring.clear()
   }
 }

@@ -9,11 +9,12 @@ import orb.Pipes.keptApart
 /** Where each step of the detector sits in its pipeline (node index); a later node means more registers in
   * between. Steps of one node share a clock; the default registers the input column three times (it comes from
   * the line buffer's RAM, which the smoother and the orientation unit share: one register may lie by the RAM, one
-  * by the Sobel adders and one on the wire between them), puts a register after every adder tree and multiplier
-  * (in the window's sums after every LUT level and every carry chain: never both in one clock), and gives the gradients two registers before the products (the second becomes the multiplier block's input
-  * register, the first stays beside the Sobel adders, so no adder drives the long wires to the multipliers) and the
-  * products two after them (the first is the multiplier block's output register, the second lies beside the adders
-  * that take them). */
+  * by the Sobel adders and one on the wire between them), puts a register after every adder and multiplier (in
+  * the Sobel and window sums after every LUT level and every carry chain: never both in one clock), and gives the
+  * gradients two registers before the products (the second becomes the multiplier block's input register, the
+  * first stays beside the Sobel adders, so no adder drives the long wires to the multipliers) and the products two
+  * after them (the first is the multiplier block's output register, the second lies beside the adders that take
+  * them). */
 case class HarrisStages(
     sobel: Int = 3,
     sobelPairs: Int = 4,
@@ -128,10 +129,10 @@ class HarrisDetector(f: FrameConfig, h: HarrisConfig, columnRows: Int, stages: H
   private def validCopy(i: Int): Bool =
     if (i == 0) at(0).isValid else keptApart(RegNext(at(i - 1).isValid) init False)
 
-  /** Binomial 1 6 15 20 15 6 1 of `values` (plus `bias` if given), every step from registers with one LUT level or
+  /** Binomial 1 6 15 20 15 6 1 of `values`, every step from registers with one LUT level or
     * one carry chain, never both in one clock: the symmetric pairs and 20 d at `pre` (four adders), a + 6 b and
     * 15 c + 20 d = 16 c + ~c + 1 + 20 d each as two carry-save words at `words` (a LUT level), each pair of words
-    * added at `halves`, the halves at `sum`. A bias joins the outer pair from the last value's own register (see
+    * added at `halves`, the halves at `sum`. The row pass's rounding bias is in its last value already (see
     * `biasedLast`), so no step adds three terms. */
   private def binomial7(
       values: collection.IndexedSeq[SInt],
